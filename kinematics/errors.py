@@ -1,0 +1,48 @@
+"""Exceptions of the kinematics library.
+
+Every error the library raises on bad input derives from :class:`KinematicsError`, and its
+message names the offending element (joint, link, field, row). The web layer maps these
+classes to HTTP problem-details answers; nothing else in the library knows about HTTP.
+"""
+
+from __future__ import annotations
+
+
+class KinematicsError(Exception):
+    """Base class of every error this library raises on bad input."""
+
+
+class URDFError(KinematicsError):
+    """A URDF document that is malformed, hostile, or describes an unsupported model."""
+
+
+class UnsupportedJointError(URDFError):
+    """A joint type the product does not support yet (floating, planar)."""
+
+
+class DHError(KinematicsError):
+    """A Denavit-Hartenberg table that is malformed or inconsistent."""
+
+
+class NoDHFormError(KinematicsError):
+    """A model that has no Denavit-Hartenberg form (a tree without a tip, a mimic joint, ...)."""
+
+
+class JointValueError(KinematicsError):
+    """Joint values of the wrong shape, with non-finite entries, or with unknown names."""
+
+
+class UnknownLinkError(KinematicsError):
+    """A link name that the model does not have."""
+
+
+class UnknownModelError(KinematicsError):
+    """A model id that the catalogue does not have."""
+
+
+class LimitError(KinematicsError):
+    """Joint values outside the joint limits, when the caller asked for them to be refused."""
+
+
+class ReferenceUnavailableError(KinematicsError):
+    """The reference implementation (Pinocchio) cannot load or evaluate this model."""
