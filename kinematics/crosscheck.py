@@ -131,7 +131,8 @@ class PinocchioReference:
         d = self.data()
         x = self.to_pinocchio_q(q)
         Jp = pin.computeFrameJacobian(self.pin_model, d, x, self.frame_ids[link], _REFERENCE_FRAMES[reference])
-        return self._fold_columns(np.asarray(Jp))
+        # eigenpy hands a 6x1 Jacobian (one-DOF model) back as shape (6,): restore the column
+        return self._fold_columns(np.asarray(Jp).reshape(6, -1))
 
 
 _references: dict[int, PinocchioReference] = {}

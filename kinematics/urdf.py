@@ -126,7 +126,7 @@ def _check_document(root: ET.Element, max_links: int) -> None:
         axis = el.find("axis")
         if axis is not None and jt in MOVING_TYPES:
             xyz = _numbers(axis.get("xyz"), 3, f"joint {name!r} <axis xyz>", "1 0 0")
-            if math.sqrt(sum(v * v for v in xyz)) < AXIS_EPS:
+            if math.hypot(*xyz) < AXIS_EPS:  # hypot: no overflow for huge components
                 raise URDFError(f"joint {name!r} has a zero <axis>")
         limit = el.find("limit")
         if limit is not None:
@@ -237,6 +237,7 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
     for yj in robot.joints:
         axis = np.asarray(yj.axis if yj.axis is not None else (1.0, 0.0, 0.0), dtype=float)
         if yj.type in MOVING_TYPES:
+            axis = axis / np.max(np.abs(axis))  # scale first: |axis|^2 may overflow (1e200)
             axis = axis / np.linalg.norm(axis)
         limits = None
         if yj.type in ("revolute", "prismatic"):
