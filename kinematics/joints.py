@@ -16,6 +16,9 @@ from .model import RobotModel
 
 #: Values within this distance of a limit count as inside it.
 LIMIT_TOLERANCE = 1e-12
+#: Largest magnitude of a joint value (radians or metres): far beyond any joint, small
+#: enough that no FK product or Jacobian overflows to inf.
+MAX_ABS_JOINT_VALUE = 1e6
 
 
 def _from_map(model: RobotModel, values: Mapping, where: str) -> np.ndarray:
@@ -83,6 +86,13 @@ def as_batch(model: RobotModel, q) -> tuple[np.ndarray, bool]:
         n, j = map(int, np.argwhere(bad)[0])
         where = f"configuration {n}, " if batch else ""
         raise JointValueError(f"{where}joint {model.joint_names[j]!r}: value {Q[n, j]} is not finite")
+    huge = np.abs(Q) > MAX_ABS_JOINT_VALUE
+    if huge.any():
+        n, j = map(int, np.argwhere(huge)[0])
+        where = f"configuration {n}, " if batch else ""
+        raise JointValueError(
+            f"{where}joint {model.joint_names[j]!r}: value {Q[n, j]:g} is beyond +-{MAX_ABS_JOINT_VALUE:g}"
+        )
     return Q, batch
 
 

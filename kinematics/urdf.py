@@ -30,10 +30,13 @@ log = logging.getLogger(__name__)
 DEFAULT_MAX_LINKS = 10_000
 #: Joint types URDF knows but this product refuses for now.
 UNSUPPORTED_TYPES = frozenset({"floating", "planar"})
+#: Largest magnitude accepted for an origin coordinate (metres / radians) and a mimic
+#: multiplier or offset: far beyond any robot, small enough that no FK product overflows.
+MAX_ABS_COORDINATE = 1e6
 
 
-def _numbers(text: str | None, count: int, what: str, default: str) -> list[float]:
-    """Parse ``count`` finite floats from an attribute value, naming ``what`` on failure."""
+def _numbers(text: str | None, count: int, what: str, default: str, bound: float | None = None) -> list[float]:
+    """Parse ``count`` finite floats (each within ``bound`` if given) from an attribute value, naming ``what`` on failure."""
     raw = default if text is None else text
     parts = raw.split()
     if len(parts) != count:
@@ -44,10 +47,12 @@ def _numbers(text: str | None, count: int, what: str, default: str) -> list[floa
         raise URDFError(f"{what}: {raw!r} is not a list of numbers") from None
     if not all(math.isfinite(v) for v in values):
         raise URDFError(f"{what}: {raw!r} has a non-finite value")
+    if bound is not None and any(abs(v) > bound for v in values):
+        raise URDFError(f"{what}: {raw!r} has a value beyond +-{bound:g}")
     return values
 
 
-def _number(text: str | None, what: str, default: float | None) -> float | None:
+def _number(text: str | None, what: str, default: float | None, bound: float | None = None) -> float | None:
     if text is None:
         return default
     try:
@@ -56,6 +61,8 @@ def _number(text: str | None, what: str, default: float | None) -> float | None:
         raise URDFError(f"{what}: {text!r} is not a number") from None
     if not math.isfinite(v):
         raise URDFError(f"{what}: {text!r} is not finite")
+    if bound is not None and abs(v) > bound:
+        raise URDFError(f"{what}: {text!r} is beyond +-{bound:g}")
     return v
 
 
@@ -121,8 +128,8 @@ def _check_document(root: ET.Element, max_links: int) -> None:
                 raise URDFError(f"joint {name!r} names {tag} link {link!r}, which does not exist")
         origin = el.find("origin")
         if origin is not None:
-            _numbers(origin.get("xyz"), 3, f"joint {name!r} <origin xyz>", "0 0 0")
-            _numbers(origin.get("rpy"), 3, f"joint {name!r} <origin rpy>", "0 0 0")
+            _numbers(origin.get("xyz"), 3, f"joint {name!r} <origin xyz>", "0 0 0", MAX_ABS_COORDINATE)
+            _numbers(origin.get("rpy"), 3, f"joint {name!r} <origin rpy>", "0 0 0", MAX_ABS_COORDINATE)
         axis = el.find("axis")
         if axis is not None and jt in MOVING_TYPES:
             xyz = _numbers(axis.get("xyz"), 3, f"joint {name!r} <axis xyz>", "1 0 0")
@@ -140,14 +147,14 @@ def _check_document(root: ET.Element, max_links: int) -> None:
         if mimic is not None:
             if not mimic.get("joint"):
                 raise URDFError(f"joint {name!r} has a <mimic> without a 'joint' attribute")
-            _number(mimic.get("multiplier"), f"joint {name!r} <mimic multiplier>", 1.0)
-            _number(mimic.get("offset"), f"joint {name!r} <mimic offset>", 0.0)
+            _number(mimic.get("multiplier"), f"joint {name!r} <mimic multiplier>", 1.0, MAX_ABS_COORDINATE)
+            _number(mimic.get("offset"), f"joint {name!r} <mimic offset>", 0.0, MAX_ABS_COORDINATE)
     for el in links:
         for vis in el.findall("visual"):
             o = vis.find("origin")
             if o is not None:
-                _numbers(o.get("xyz"), 3, f"link {el.get('name')!r} <visual><origin xyz>", "0 0 0")
-                _numbers(o.get("rpy"), 3, f"link {el.get('name')!r} <visual><origin rpy>", "0 0 0")
+                _numbers(o.get("xyz"), 3, f"link {el.get('name')!r} <visual><origin xyz>", "0 0 0", MAX_ABS_COORDINATE)
+                _numbers(o.get("rpy"), 3, f"link {el.get('name')!r} <visual><origin rpy>", "0 0 0", MAX_ABS_COORDINATE)
 
 
 def _check_tree(link_names: Iterable[str], joints: list[Joint]) -> str:

@@ -24,7 +24,7 @@ import pytest
 import yaml
 
 import kinematics.errors as kerrors
-from kinematics import as_batch, compile_model, parse_urdf
+from kinematics import REFERENCES, as_batch, compile_model, parse_urdf
 from kinematics.urdf import DEFAULT_MAX_LINKS
 
 CORPUS = Path(__file__).parent / "corpus"
@@ -197,6 +197,35 @@ def test_pinocchio_jacobian_of_a_one_dof_model():
     assert crosscheck.compare_jacobian(model, Q, "b") < 1e-12
     ref = crosscheck.reference_for(model).jacobian(Q[0], "b", "world")
     assert ref.shape == (6, 1) and abs(ref[5, 0] - 1.0) < 1e-12
+
+
+def test_extreme_legal_values_keep_fk_and_jacobians_finite():
+    """Was: finite but huge origins / q (1e308) overflowed to inf and the API answered 200 with
+    nulls. Now inputs are bounded (MAX_ABS_COORDINATE, MAX_ABS_JOINT_VALUE); at the bounds,
+    a long prismatic chain with mimic multipliers still gives finite results."""
+    from kinematics.joints import MAX_ABS_JOINT_VALUE
+    from kinematics.urdf import MAX_ABS_COORDINATE
+
+    n = 200
+    B = MAX_ABS_COORDINATE
+    links = "".join(f'<link name="l{i}"/>' for i in range(n + 1))
+    joints = "".join(
+        f'<joint name="j{i}" type="prismatic"><parent link="l{i - 1}"/><child link="l{i}"/>'
+        f'<origin xyz="{B:g} {-B:g} {B:g}" rpy="{B:g} 0 {-B:g}"/><axis xyz="1 1 0"/>'
+        + (f'<mimic joint="j1" multiplier="{B:g}" offset="{-B:g}"/>' if i > 1 else "")
+        + "</joint>"
+        for i in range(1, n + 1)
+    )
+    model = parse_urdf(f'<robot name="extreme">{links}{joints}</robot>')
+    Q = np.array([[MAX_ABS_JOINT_VALUE], [-MAX_ABS_JOINT_VALUE]])
+    poe = compile_model(model)
+    assert np.all(np.isfinite(poe.fk(Q, list(model.links))))
+    for r in REFERENCES:
+        assert np.all(np.isfinite(poe.jacobian(Q, f"l{n}", r)))
+    with pytest.raises(kerrors.JointValueError, match=r"joint 'j1': value 1e\+07 is beyond"):
+        as_batch(model, [1e7])
+    with pytest.raises(kerrors.JointValueError, match=r"configuration 1, joint 'j1': value -1e\+308"):
+        as_batch(model, [[0.0], [-1e308]])
 
 
 # ---------------------------------------------------------------- joint values
