@@ -20,3 +20,43 @@ def catalogue():
     from kinematics import default_catalogue
 
     return default_catalogue()
+
+
+# ---------------------------------------------------------------------- REST API (app/)
+@pytest.fixture
+def api_data_dir(tmp_path) -> Path:
+    """An empty data directory for one test's service (shared by every client made from it)."""
+    d = tmp_path / "data"
+    d.mkdir()
+    return d
+
+
+@pytest.fixture
+def make_client(api_data_dir):
+    """Factory: ``make_client(**settings)`` -> a started TestClient on ``api_data_dir``.
+
+    Two clients from one test share the data directory: two replicas of the service.
+    """
+    from fastapi.testclient import TestClient
+
+    from app.main import create_app
+    from app.settings import Settings
+
+    opened = []
+
+    def make(**overrides):
+        overrides.setdefault("data_dir", api_data_dir)
+        client = TestClient(create_app(Settings(**overrides)))
+        client.__enter__()
+        opened.append(client)
+        return client
+
+    yield make
+    for client in reversed(opened):
+        client.__exit__(None, None, None)
+
+
+@pytest.fixture
+def api_client(make_client):
+    """A TestClient of the service with default settings and an empty data directory."""
+    return make_client()

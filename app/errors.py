@@ -1,0 +1,175 @@
+"""Every error as ``application/problem+json`` (RFC 9457), mapped in one place.
+
+``type`` is a URN naming the kind of problem (``urn:kinematics:problem:<slug>``), ``title``
+its short description, ``status`` the HTTP status, ``detail`` the message naming what is
+wrong; ``field``, ``joint``, ``link`` or ``model`` are added when known. Library
+exceptions (:mod:`kinematics.errors`) map to statuses by class, here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from pydantic import ValidationError
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from kinematics.errors import (
+    DHError,
+    JointValueError,
+    KinematicsError,
+    LimitError,
+    NoDHFormError,
+    ReferenceUnavailableError,
+    UnknownLinkError,
+    UnknownModelError,
+    URDFError,
+)
+
+from .responses import ProblemResponse
+
+log = logging.getLogger("app.errors")
+
+PROBLEM_TYPE_PREFIX = "urn:kinematics:problem:"
+
+#: library exception -> (status, slug, title); the first matching class wins (subclasses first)
+KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
+    (UnknownModelError, 404, "unknown-model", "Unknown model"),
+    (UnknownLinkError, 404, "unknown-link", "Unknown link"),
+    (URDFError, 422, "invalid-urdf", "Invalid or unsupported URDF"),
+    (DHError, 422, "invalid-dh-table", "Invalid Denavit-Hartenberg table"),
+    (NoDHFormError, 422, "no-dh-form", "The model has no Denavit-Hartenberg form"),
+    (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
+    (LimitError, 422, "joint-limits", "Joint values outside their limits"),
+    (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
+    (KinematicsError, 422, "kinematics-error", "Invalid request"),
+)
+
+_HTTP_TITLES = {
+    400: "Bad request", 401: "Authentication required", 403: "Forbidden", 404: "Not found",
+    405: "Method not allowed", 406: "Not acceptable", 409: "Conflict", 413: "Content too large",
+    415: "Unsupported media type", 422: "Unprocessable content", 500: "Internal server error",
+}
+
+_QUOTED = {
+    "joint": re.compile(r"\bjoint '([^']+)'"),
+    "link": re.compile(r"\blink '([^']+)'"),
+}
+
+
+class ProblemError(Exception):
+    """An error raised by the app itself, carrying its problem-details fields."""
+
+    def __init__(self, status: int, detail: str, *, slug: str | None = None, title: str | None = None,
+                 headers: dict[str, str] | None = None, **extra: Any):
+        super().__init__(detail)
+        self.status = status
+        self.detail = detail
+        self.slug = slug or _HTTP_TITLES.get(status, "error").lower().replace(" ", "-")
+        self.title = title or _HTTP_TITLES.get(status, "Error")
+        self.headers = headers
+        self.extra = {k: v for k, v in extra.items() if v is not None}
+
+
+def problem(status: int, title: str, detail: str, slug: str, headers: dict[str, str] | None = None,
+            **extra: Any) -> ProblemResponse:
+    body = {"type": PROBLEM_TYPE_PREFIX + slug, "title": title, "status": status, "detail": detail}
+    body.update({k: v for k, v in extra.items() if v is not None})
+    return ProblemResponse(body, status_code=status, headers=headers)
+
+
+def names_in(message: str) -> dict[str, str]:
+    """The first quoted joint / link name in a library message, by kind."""
+    out = {}
+    for kind, pattern in _QUOTED.items():
+        m = pattern.search(message)
+        if m:
+            out[kind] = m.group(1)
+    return out
+
+
+def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> ProblemResponse:
+    """The problem of a library exception; ``model`` is the model id of the request path, if any."""
+    for cls, status, slug, title in KINEMATICS_ERRORS:
+        if isinstance(exc, cls):
+            break
+    detail = str(exc)
+    return problem(status, title, detail, slug, model=model_id, **names_in(detail))
+
+
+def _field(loc: tuple) -> str:
+    parts = [str(p) for p in loc if p not in ("body", "query", "path", "header")]
+    # drop the union-member labels pydantic inserts (e.g. "list[float]")
+    return ".".join(p for p in parts if "[" not in p)
+
+
+def _branch(loc: tuple) -> str | None:
+    """The union member an error belongs to (pydantic puts its label in the location)."""
+    return next((str(p) for p in loc if "[" in str(p)), None)
+
+
+def validation_problem(errors: list[dict]) -> ProblemResponse:
+    """422 for pydantic errors: ``field`` names the first offending field, ``errors`` lists the rest.
+
+    For a union (q), only the errors of the member the first error belongs to are kept:
+    "q.5: not a number" says more than "q: not an object" and its other alternatives.
+    """
+    if not errors:
+        return problem(422, "Invalid request", "invalid request", "validation-error")
+    branch = _branch(tuple(errors[0].get("loc", ())))
+    seen, cleaned = set(), []
+    for e in errors:
+        loc = tuple(e.get("loc", ()))
+        if branch is not None and _branch(loc) not in (branch, None):
+            continue
+        item = {"field": _field(loc), "message": e.get("msg", ""), "type": e.get("type", "")}
+        if (item["field"], item["message"]) not in seen:
+            seen.add((item["field"], item["message"]))
+            cleaned.append(item)
+    first = cleaned[0]
+    if first["field"] == "q" or first["field"].startswith("q."):
+        detail = ("q must be a list of numbers (one configuration), a {joint_name: number} map, "
+                  f"or a list of those (a batch): {first['field']}: {first['message']}")
+    else:
+        detail = f"{first['field'] or 'request'}: {first['message']}"
+    return problem(422, "Invalid request", detail, "validation-error", field=first["field"] or None,
+                   errors=cleaned[:20])
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    """Register the problem-details handlers on ``app``."""
+
+    @app.exception_handler(ProblemError)
+    async def _problem_error(request: Request, exc: ProblemError):
+        return problem(exc.status, exc.title, exc.detail, exc.slug, headers=exc.headers, **exc.extra)
+
+    @app.exception_handler(KinematicsError)
+    async def _kinematics_error(request: Request, exc: KinematicsError):
+        return kinematics_problem(exc, request.path_params.get("model_id"))
+
+    @app.exception_handler(RequestValidationError)
+    async def _request_validation(request: Request, exc: RequestValidationError):
+        return validation_problem(list(exc.errors()))
+
+    @app.exception_handler(ValidationError)
+    async def _pydantic_validation(request: Request, exc: ValidationError):
+        return validation_problem(exc.errors(include_url=False))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http_error(request: Request, exc: StarletteHTTPException):
+        status = exc.status_code
+        title = _HTTP_TITLES.get(status, "Error")
+        detail = exc.detail if isinstance(exc.detail, str) else title
+        if status == 404 and detail == "Not Found":
+            detail = f"no route {request.url.path!r}"
+        elif status == 405 and detail == "Method Not Allowed":
+            detail = f"method {request.method} is not allowed on {request.url.path!r}"
+        return problem(status, title, detail, title.lower().replace(" ", "-"), headers=getattr(exc, "headers", None))
+
+    @app.exception_handler(Exception)
+    async def _bug(request: Request, exc: Exception):
+        log.exception("unhandled error on %s %s", request.method, request.url.path)
+        return problem(500, "Internal server error", "an unexpected error occurred; it has been logged", "internal-error")

@@ -1,0 +1,104 @@
+"""The ASGI application: ``app.main:app`` (``uvicorn app.main:app``), built by :func:`create_app`.
+
+The registry (bundled catalogue listed, stored models loaded from the data directory) is
+built in the lifespan hook, not at import. Routers are listed in :data:`ROUTERS`: each
+module of ``app.routes`` named there exposes ``router``; a module that is not present is
+skipped, so a feature can add its router by adding its name.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.openapi.utils import get_openapi
+from pydantic.json_schema import models_json_schema
+
+import kinematics
+from kinematics.catalogue import default_catalogue
+
+from .docs import install_docs
+from .errors import install_error_handlers
+from .middleware import BodySizeLimit
+from .registry import Registry
+from .responses import FastJSONResponse
+from .schemas import REQUEST_SCHEMAS
+from .settings import Settings
+
+log = logging.getLogger("app")
+
+#: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
+ROUTERS = ("health", "models", "kinematics", "viewer")
+OPTIONAL_ROUTERS = frozenset({"viewer"})
+
+DESCRIPTION = """Forward kinematics and Jacobians of robots (URDF or Denavit-Hartenberg), computed with
+product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
+
+Units are metres and radians. Poses are `T_world_link`; Jacobians are 6 x dof with the
+linear rows first. Batch FK and Jacobians also speak NumPy `.npy`
+(`Content-Type` / `Accept: application/x-npy`). Errors are `application/problem+json`."""
+
+
+def _include_routers(app: FastAPI) -> None:
+    for name in ROUTERS:
+        try:
+            module = importlib.import_module(f"app.routes.{name}")
+        except ModuleNotFoundError as exc:
+            if name in OPTIONAL_ROUTERS and exc.name == f"app.routes.{name}":
+                continue
+            raise
+        app.include_router(module.router)
+
+
+def _custom_openapi(app: FastAPI):
+    """OpenAPI with the schemas of request bodies the handlers read themselves (JSON or .npy)."""
+
+    def openapi() -> dict:
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+        _, defs = models_json_schema([(m, "validation") for m in REQUEST_SCHEMAS],
+                                     ref_template="#/components/schemas/{model}")
+        components = schema.setdefault("components", {}).setdefault("schemas", {})
+        for name, s in defs.get("$defs", {}).items():
+            components.setdefault(name, s)
+        app.openapi_schema = schema
+        return schema
+
+    return openapi
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the service. ``settings`` default to the environment (``KIN_*``)."""
+    settings = settings if settings is not None else Settings()
+    logging.getLogger("app").setLevel(settings.log_level.upper())
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        data_dir = settings.resolved_data_dir()
+        registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
+        loaded = registry.load_stored()
+        app.state.registry = registry
+        log.info("registry: %d bundled models, %d stored models in %s", len(registry.catalogue.ids()), loaded, data_dir)
+        yield
+
+    app = FastAPI(
+        title="Kinematics service", version=kinematics.__version__, description=DESCRIPTION,
+        lifespan=lifespan, default_response_class=FastJSONResponse, docs_url=None, redoc_url=None,
+    )
+    app.state.settings = settings
+    install_error_handlers(app)
+    _include_routers(app)
+    install_docs(app)
+    app.openapi = _custom_openapi(app)
+    if settings.cors_origins:
+        app.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins, allow_methods=["*"],
+                           allow_headers=["*"], expose_headers=["X-Links", "X-Joint-Names", "X-Link", "Location"])
+    app.add_middleware(BodySizeLimit, limit=settings.max_request_bytes)
+    return app
+
+
+app = create_app()

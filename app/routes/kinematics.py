@@ -1,0 +1,270 @@
+"""Forward kinematics and Jacobians, in JSON or NumPy ``.npy`` (binary batch transport).
+
+Both endpoints take either a JSON body (``FKRequest`` / ``JacobianRequest``) or, with
+``Content-Type: application/x-npy``, an ``(N, dof)`` float64 array with the other options
+as query parameters. ``Accept: application/x-npy`` returns ``(N, links, 4, 4)`` poses or
+``(N, 6, dof)`` Jacobians, with the link order in ``X-Links`` and the joint order in
+``X-Joint-Names`` (comma-separated, each name percent-encoded).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from fastapi import APIRouter, Depends, Query, Request
+
+from kinematics import as_batch, compile_model, conditioning, out_of_limits, require_within_limits
+from kinematics.errors import JointValueError
+
+from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
+from ..errors import ProblemError
+from ..npy import decode_q, names_header
+from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
+from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
+                       Problem)
+from ..settings import Settings
+from ..views import poses_json
+
+router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
+
+#: configurations per library call: bounds the scratch memory of one call on large batches
+CHUNK_CONFIGURATIONS = 16_384
+
+_ERRORS = {
+    400: {"model": Problem, "description": "malformed body"},
+    404: {"model": Problem, "description": "unknown model or link"},
+    413: {"model": Problem, "description": "body, batch or result over the configured limit"},
+    415: {"model": Problem, "description": "unsupported content type"},
+    422: {"model": Problem, "description": "invalid joint values, limits refused, or invalid options"},
+}
+
+
+def _request_body(schema: str, examples: dict, npy_shape: str) -> dict:
+    return {"requestBody": {"required": True, "content": {
+        "application/json": {"schema": {"$ref": f"#/components/schemas/{schema}"}, "examples": examples},
+        NPY_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary",
+                                    "description": f"np.save of a float64 array {npy_shape}; options as query parameters"}},
+    }}}
+
+
+def _npy_response_doc(shape: str) -> dict:
+    return {"content": {NPY_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary", "description": shape}}}}
+
+
+@dataclass
+class Call:
+    """One FK / Jacobian request, whatever its encoding."""
+
+    q: Any  # as given in JSON, or an ndarray from .npy
+    verify: bool
+    limits: str
+    links: Any = None  # FK: None | "all" | list[str]
+    format: str = "pose"
+    link: str | None = None  # Jacobian
+    reference: str = "world"
+
+
+def _split_names(values: list[str] | None):
+    if values is None:
+        return None
+    names = [n.strip() for v in values for n in v.split(",") if n.strip()]
+    return "all" if names == ["all"] else names
+
+
+def _check_json_batch_size(body_q: Any, settings: Settings) -> None:
+    if isinstance(body_q, list) and body_q and isinstance(body_q[0], (list, dict)) and len(body_q) > settings.max_batch:
+        raise ProblemError(413, f"q has {len(body_q)} configurations; the limit is {settings.max_batch}",
+                           slug="batch-too-large", field="q", limit=settings.max_batch)
+
+
+async def _read_call(request: Request, settings: Settings, schema, query: dict) -> Call:
+    body = await read_body(request, settings.max_request_bytes, "request body")
+    kind = media_type(request)
+    if kind == NPY_MEDIA_TYPE:
+        return Call(q=decode_q(body), **query)
+    if kind not in ("application/json", ""):
+        raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json or {NPY_MEDIA_TYPE}",
+                           slug="unsupported-media-type")
+    if not body:
+        raise ProblemError(422, "the body is empty: send {\"q\": [...]}", slug="validation-error", field="q")
+    req = schema.model_validate_json(body)
+    _check_json_batch_size(req.q, settings)
+    fields = req.model_dump(exclude={"q"})
+    return Call(q=req.q, **fields)
+
+
+async def read_fk_call(
+    request: Request, settings: SettingsDep,
+    links: Annotated[list[str] | None, Query(description=".npy bodies: link names (repeat or comma-separate), or `all`")] = None,
+    verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
+    limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
+    format: Annotated[Literal["pose", "matrix", "compact"], Query(description=".npy bodies with a JSON answer: pose format")] = "pose",
+) -> Call:
+    return await _read_call(request, settings, FKRequest,
+                            {"links": _split_names(links), "verify": verify, "limits": limits, "format": format})
+
+
+async def read_jacobian_call(
+    request: Request, settings: SettingsDep,
+    link: Annotated[str | None, Query(description=".npy bodies: the link (default: the first leaf link)")] = None,
+    reference: Annotated[Literal["world", "local", "local_world_aligned"], Query(description=".npy bodies: reference")] = "world",
+    verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
+    limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
+) -> Call:
+    return await _read_call(request, settings, JacobianRequest,
+                            {"link": link, "reference": reference, "verify": verify, "limits": limits})
+
+
+def _batch(model, q: Any, settings: Settings) -> tuple[np.ndarray, bool]:
+    """(Q (N, dof), is_batch); a JSON list of equal-length vectors takes a vectorised path."""
+    if isinstance(q, list) and q and isinstance(q[0], list):
+        try:
+            arr = np.array(q, dtype=float)
+        except ValueError:  # ragged: let the library name the configuration at fault
+            arr = None
+        if arr is not None and arr.ndim == 2:
+            q = arr
+    Q, is_batch = as_batch(model, q)
+    if Q.shape[0] > settings.max_batch:
+        raise ProblemError(413, f"q has {Q.shape[0]} configurations; the limit is {settings.max_batch}",
+                           slug="batch-too-large", field="q", limit=settings.max_batch)
+    if Q.shape[0] == 0:
+        raise JointValueError("q has no configuration")
+    return Q, is_batch
+
+
+def _limits(model, Q: np.ndarray, policy: str) -> list[list[str]]:
+    if policy == "refuse":
+        require_within_limits(model, Q)
+    return out_of_limits(model, Q)
+
+
+def _check_verify(call: Call, N: int, settings: Settings) -> None:
+    if call.verify and N > settings.max_verify:
+        raise ProblemError(413, f"verify checks at most {settings.max_verify} configurations, q has {N}",
+                           slug="verify-too-large", field="verify", limit=settings.max_verify)
+
+
+def _check_result_size(values: int, settings: Settings, what: str) -> None:
+    if values > settings.max_result_values:
+        raise ProblemError(413, f"the answer would hold {values} numbers ({what}); the limit is "
+                           f"{settings.max_result_values}: send fewer configurations or links",
+                           slug="result-too-large", field="q", limit=settings.max_result_values)
+
+
+def _chunked(fn, Q: np.ndarray) -> np.ndarray:
+    if Q.shape[0] <= CHUNK_CONFIGURATIONS:
+        return fn(Q)
+    parts = [fn(Q[i:i + CHUNK_CONFIGURATIONS]) for i in range(0, Q.shape[0], CHUNK_CONFIGURATIONS)]
+    return np.concatenate(parts, axis=0)
+
+
+def _names_headers(links: list[str], joint_names) -> dict[str, str]:
+    headers = {}
+    for key, names in (("X-Links", links), ("X-Joint-Names", joint_names)):
+        value = names_header(names)
+        if value is None:
+            headers[key + "-Omitted"] = "too long for a header; see GET /models/{id}"
+        else:
+            headers[key] = value
+    return headers
+
+
+@router.post(
+    "/models/{model_id}/fk", response_model=FKResponse,
+    responses={200: _npy_response_doc("(N, links, 4, 4) float64 poses T_world_link"), **_ERRORS},
+    openapi_extra=_request_body("FKRequest", FK_EXAMPLES, "(N, dof) or (dof,)"),
+)
+def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_call)], request: Request,
+                       registry: RegistryDep, settings: SettingsDep):
+    """Poses `T_world_link` of links (default: the leaf links; `"all"`; or names) for one configuration or a batch.
+
+    q is a vector in `joint_names` order, a `{joint_name: value}` map, or a list of those.
+    `out_of_limits` lists the joints outside their limits (per configuration for a batch);
+    `limits: "refuse"` answers 422 instead. `verify: true` compares with Pinocchio.
+    `format`: `pose` (matrix, position, quaternion {w,x,y,z}, rpy), `matrix`, or `compact`
+    (per link `positions` (N, 3) and `quaternions` (N, 4), w first).
+    """
+    rec = registry.get(model_id)
+    model = rec.model
+    poe = compile_model(model)
+    Q, is_batch = _batch(model, call.q, settings)
+    oob = _limits(model, Q, call.limits)
+    links = list(model.leaf_links) if call.links is None else list(model.links) if call.links == "all" else list(call.links)
+    poe.link_indices(links)  # unknown links: 404 before any work
+    _check_verify(call, Q.shape[0], settings)
+    _check_result_size(Q.shape[0] * len(links) * 16, settings, f"{Q.shape[0]} configurations x {len(links)} links x 16")
+    T = _chunked(lambda Qc: poe.fk(Qc, links), Q)
+    verification = None
+    if call.verify:
+        from kinematics.crosscheck import compare_fk
+
+        dev = compare_fk(model, Q, links, poses=T)
+        verification = {"reference": dev.reference, "max_position_error": dev.max_position_error,
+                        "max_rotation_error": dev.max_rotation_error}
+    if wants_npy(request):
+        headers = _names_headers(links, model.joint_names)
+        headers["X-Out-Of-Limits"] = str(sum(1 for row in oob if row))
+        if verification:
+            headers.update({"X-Verification-Reference": verification["reference"],
+                            "X-Max-Position-Error": repr(verification["max_position_error"]),
+                            "X-Max-Rotation-Error": repr(verification["max_rotation_error"])})
+        return NpyResponse(T, headers=headers)
+    return FastJSONResponse({
+        "model": rec.id, "joint_names": list(model.joint_names), "links": links, "format": call.format,
+        "poses": poses_json(T, links, call.format, is_batch),
+        "out_of_limits": oob if is_batch else oob[0], "verification": verification,
+    })
+
+
+@router.post(
+    "/models/{model_id}/jacobian", response_model=JacobianResponse,
+    responses={200: _npy_response_doc("(N, 6, dof) float64 Jacobians, linear rows first"), **_ERRORS},
+    openapi_extra=_request_body("JacobianRequest", JACOBIAN_EXAMPLES, "(N, dof) or (dof,)"),
+)
+def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobian_call)], request: Request,
+             registry: RegistryDep, settings: SettingsDep):
+    """Jacobian (6 x dof, linear rows first) of a link in `world`, `local` or `local_world_aligned`.
+
+    Also the singular values, manipulability (their product) and condition number
+    (largest / smallest; `null` at a singularity). `verify: true` compares with Pinocchio.
+    """
+    rec = registry.get(model_id)
+    model = rec.model
+    poe = compile_model(model)
+    Q, is_batch = _batch(model, call.q, settings)
+    oob = _limits(model, Q, call.limits)
+    link = call.link
+    if link is None:
+        link = model.leaf_links[0]
+    poe.link_indices([link])
+    _check_verify(call, Q.shape[0], settings)
+    _check_result_size(Q.shape[0] * 6 * model.dof, settings, f"{Q.shape[0]} configurations x 6 x {model.dof}")
+    J = _chunked(lambda Qc: poe.jacobian(Qc, link, call.reference), Q)
+    verification = None
+    if call.verify:
+        from kinematics.crosscheck import REFERENCE_NAME, compare_jacobian
+
+        err = compare_jacobian(model, Q, link, references=(call.reference,), jacobians={call.reference: J})
+        verification = {"reference": REFERENCE_NAME, "max_jacobian_error": err}
+    if wants_npy(request):
+        headers = _names_headers([link], model.joint_names)
+        headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": call.reference,
+                        "X-Out-Of-Limits": str(sum(1 for row in oob if row))})
+        if verification:
+            headers.update({"X-Verification-Reference": verification["reference"],
+                            "X-Max-Jacobian-Error": repr(verification["max_jacobian_error"])})
+        return NpyResponse(J, headers=headers)
+    measures = conditioning(J)
+    cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
+    if is_batch:
+        body = {"jacobian": J, "singular_values": measures["singular_values"],
+                "manipulability": measures["manipulability"], "condition_number": cond, "out_of_limits": oob}
+    else:
+        body = {"jacobian": J[0], "singular_values": measures["singular_values"][0],
+                "manipulability": float(measures["manipulability"][0]), "condition_number": cond[0],
+                "out_of_limits": oob[0]}
+    return FastJSONResponse({"model": rec.id, "link": link, "reference": call.reference,
+                             "joint_names": list(model.joint_names), **body, "verification": verification})

@@ -1,0 +1,297 @@
+"""Wire schemas (pydantic): requests, responses and their OpenAPI examples.
+
+Field names follow ``../shared/DESIGN.md`` (the API contract). Matrices are row-major
+nested lists; quaternions are objects ``{w, x, y, z}``; Jacobians are 6 x dof with the
+linear rows first. JSON has no infinity: a condition number at a singularity is ``null``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, Strict
+
+Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolean)
+Vector = list[float]
+Matrix = list[list[float]]
+JointVector = list[Number]
+JointMap = dict[str, Number]
+#: q as the contract allows it: a vector in joint_names order, a name map, or a list of those (a batch)
+JointValues = Union[JointVector, JointMap, list[JointVector], list[JointMap]]
+
+References = Literal["world", "local", "local_world_aligned"]
+LimitPolicy = Literal["report", "refuse"]
+PoseFormat = Literal["pose", "matrix", "compact"]
+
+UR5_HOME = [0.0, -1.5707963267948966, 1.5707963267948966, 0.0, 1.5707963267948966, 0.0]
+
+
+# ---------------------------------------------------------------------- health
+class Health(BaseModel):
+    status: Literal["ok"] = "ok"
+    version: str = Field(description="version of the service")
+    pinocchio_version: str = Field(description="version of Pinocchio used by verify=true")
+    bundled_models: int = Field(description="number of bundled (catalogue) models")
+
+
+# ---------------------------------------------------------------------- models
+class ModelSummary(BaseModel):
+    id: str = Field(examples=["ur5"])
+    name: str = Field(examples=["ur5"])
+    source: str = Field(description="example-robot-data | preset | upload | dh", examples=["example-robot-data"])
+    dof: int | None = Field(description="number of independent joints (null if the bundled file cannot be loaded)")
+    error: str | None = Field(default=None, description="why a bundled model cannot be loaded, if it cannot")
+
+
+class Origin(BaseModel):
+    xyz: Vector = Field(description="translation of T_parent_joint, metres")
+    rpy: Vector = Field(description="roll, pitch, yaw of T_parent_joint (URDF: R = Rz(yaw) Ry(pitch) Rx(roll))")
+
+
+class JointLimitsOut(BaseModel):
+    lower: float
+    upper: float
+    effort: float | None = None
+    velocity: float | None = None
+
+
+class MimicOut(BaseModel):
+    joint: str = Field(description="the joint followed")
+    multiplier: float
+    offset: float
+
+
+class JointInfo(BaseModel):
+    name: str
+    type: Literal["revolute", "continuous", "prismatic", "fixed"]
+    axis: Vector = Field(description="unit axis in the joint frame")
+    parent: str
+    child: str
+    origin: Origin
+    limits: JointLimitsOut | None = Field(description="null for continuous (or unbounded) joints")
+    mimic: MimicOut | None = Field(description="set for a mimic joint: value = multiplier * q[joint] + offset")
+
+
+class ModelInfo(BaseModel):
+    id: str
+    name: str
+    source: str
+    dof: int
+    root: str
+    joint_names: list[str] = Field(description="the order of q")
+    links: list[str]
+    leaf_links: list[str] = Field(description="links with no child: the default links of FK")
+    joints: list[JointInfo]
+    warnings: list[str]
+    urdf_sha256: str
+    created: str | None = Field(default=None, description="creation time (stored models)")
+    dh_table: dict[str, Any] | None = Field(default=None, description="the DH table a DH-built model came from")
+
+
+class URDFUpload(BaseModel):
+    """JSON form of ``POST /models`` (the raw XML body is the other form)."""
+
+    model_config = ConfigDict(extra="forbid")
+    urdf: str = Field(description="the URDF document")
+    name: str | None = Field(default=None, max_length=200, description="display name (default: the robot's name)")
+
+
+class DHJoint(BaseModel):
+    """One DH row (``kinematics.dh`` validates the table and names the field at fault)."""
+
+    model_config = ConfigDict(extra="allow")
+    type: str = Field(description="revolute | prismatic (or R | P)", examples=["revolute"])
+    a: float = Field(description="link length, metres (modified: a_{i-1})")
+    alpha: float = Field(description="link twist (modified: alpha_{i-1}); unit from `angles`")
+    d: float = Field(description="link offset, metres (prismatic: its value at q = 0)")
+    theta: float = Field(description="joint angle (revolute: its value at q = 0); unit from `angles`")
+    name: str | None = Field(default=None, description="joint name (default joint_<i>)")
+    limits: list[float] | dict[str, float] | None = Field(
+        default=None, description="[lower, upper] (revolute: unit from `angles`; prismatic: metres)")
+
+
+class DHTable(BaseModel):
+    """A Denavit-Hartenberg table, as ``POST /models/dh`` takes it and ``GET /models/{id}/dh`` gives it."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str | None = None
+    convention: Literal["standard", "modified"] = "standard"
+    angles: Literal["radians", "degrees"] = "radians"
+    joints: list[DHJoint]
+    base: Matrix | dict[str, Vector] | None = Field(
+        default=None, description="T_world_frame0: 4x4, or {xyz, rpy}; default identity")
+    tool: Matrix | dict[str, Vector] | None = Field(
+        default=None, description="T_frameN_tool: 4x4, or {xyz, rpy}; default identity")
+
+
+class PoEJoint(BaseModel):
+    name: str
+    type: Literal["revolute", "continuous", "prismatic"]
+    screw: Vector = Field(description="space screw S = (w, v) at q = 0, angular first; v = -w x r")
+    axis: Vector = Field(description="w: unit axis (prismatic: direction), world frame at q = 0")
+    point: Vector = Field(description="r: a point on the axis, world frame (zeros for prismatic)")
+    q_index: int = Field(description="column of q driving the joint (the leader's for a mimic joint)")
+    multiplier: float = Field(description="joint value = multiplier * q[q_index] + offset")
+    offset: float
+
+
+class Screws(BaseModel):
+    model: str
+    twist_order: Literal["angular_first"] = "angular_first"
+    joint_names: list[str] = Field(description="the order of q")
+    joints: list[PoEJoint] = Field(description="every moving joint (mimic joints included), root to leaves")
+    home_poses: dict[str, Matrix] = Field(description="M_L = T_world_L(q = 0) for every link")
+
+
+# ---------------------------------------------------------------------- kinematics
+class Quaternion(BaseModel):
+    w: float
+    x: float
+    y: float
+    z: float
+
+
+class Pose(BaseModel):
+    matrix: Matrix = Field(description="T_world_link, 4x4 row-major")
+    position: Vector = Field(description="p_world_link, metres")
+    quaternion: Quaternion = Field(description="rotation of T_world_link, unit quaternion")
+    rpy: Vector = Field(description="roll, pitch, yaw (URDF: R = Rz(yaw) Ry(pitch) Rx(roll))")
+
+
+class CompactPoses(BaseModel):
+    positions: list[Vector] = Field(description="(N, 3) positions, one row per configuration")
+    quaternions: list[Vector] = Field(description="(N, 4) unit quaternions, w first (w, x, y, z)")
+
+
+class FKVerification(BaseModel):
+    reference: str = Field(examples=["pinocchio 4.1.0"])
+    max_position_error: float = Field(description="metres, over every configuration and link returned")
+    max_rotation_error: float = Field(description="largest rotation-matrix entry difference")
+
+
+class JacobianVerification(BaseModel):
+    reference: str
+    max_jacobian_error: float = Field(description="largest entry-wise difference")
+
+
+_Q_DESC = ("joint values: a vector in the order of joint_names, a {joint_name: value} map, "
+           "or a list of those (a batch)")
+_LIMITS_DESC = "report: compute and list out-of-limit joints in out_of_limits; refuse: answer 422 naming the joint"
+
+
+class FKRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    q: JointValues = Field(description=_Q_DESC)
+    links: Union[Literal["all"], list[str], None] = Field(
+        default=None, description='link names; "all" for every link; default: the leaf links')
+    verify: bool = Field(default=False, description="also compare with Pinocchio and report the largest deviations")
+    limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+    format: PoseFormat = Field(
+        default="pose",
+        description="pose: matrix, position, quaternion, rpy per link; matrix: the 4x4 only; "
+                    "compact: per link positions (N,3) and quaternions (N,4, w first) arrays")
+
+
+class FKResponse(BaseModel):
+    model: str
+    joint_names: list[str]
+    links: list[str] = Field(description="the links returned, in order")
+    format: PoseFormat
+    poses: Union[dict[str, Pose], list[dict[str, Pose]], dict[str, Matrix], list[dict[str, Matrix]],
+                 dict[str, CompactPoses]] = Field(
+        description="per link (pose: Pose, matrix: 4x4, compact: arrays); for a batch with format "
+                    "pose or matrix, a list with one entry per configuration")
+    out_of_limits: Union[list[str], list[list[str]]] = Field(
+        description="joints outside their limits (for a batch, one list per configuration)")
+    verification: FKVerification | None = None
+
+
+class JacobianRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    q: JointValues = Field(description=_Q_DESC)
+    link: str | None = Field(default=None, description="default: the first leaf link")
+    reference: References = Field(default="world", description="world | local | local_world_aligned (Pinocchio's meaning)")
+    verify: bool = False
+    limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+
+
+class JacobianResponse(BaseModel):
+    model: str
+    link: str
+    reference: References
+    joint_names: list[str] = Field(description="the order of the columns")
+    jacobian: Union[Matrix, list[Matrix]] = Field(description="6 x dof, linear rows first (batch: one per configuration)")
+    singular_values: Union[Vector, list[Vector]]
+    manipulability: Union[float, list[float]] = Field(description="product of the singular values")
+    condition_number: Union[float, None, list[Union[float, None]]] = Field(
+        description="largest / smallest singular value; null at a singularity (infinite)")
+    out_of_limits: Union[list[str], list[list[str]]]
+    verification: JacobianVerification | None = None
+
+
+class Problem(BaseModel):
+    """An error (``application/problem+json``)."""
+
+    model_config = ConfigDict(extra="allow")
+    type: str
+    title: str
+    status: int
+    detail: str
+    field: str | None = None
+
+
+# ---------------------------------------------------------------------- examples
+FK_EXAMPLES = {
+    "ur5_single": {
+        "summary": "UR5, one configuration",
+        "value": {"q": UR5_HOME, "links": ["tool0"], "verify": True},
+    },
+    "ur5_batch": {
+        "summary": "UR5, a batch of two",
+        "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "links": ["tool0", "wrist_3_link"]},
+    },
+    "ur5_name_map": {
+        "summary": "UR5, q as a name map, every link",
+        "value": {"q": {"shoulder_pan_joint": 0.1, "shoulder_lift_joint": -1.2, "elbow_joint": 1.0,
+                        "wrist_1_joint": 0.0, "wrist_2_joint": 1.57, "wrist_3_joint": 0.0}, "links": "all"},
+    },
+    "ur5_compact": {
+        "summary": "UR5, a batch in compact form",
+        "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "format": "compact"},
+    },
+}
+JACOBIAN_EXAMPLES = {
+    "ur5_world": {
+        "summary": "UR5 tool0, world reference, verified",
+        "value": {"q": UR5_HOME, "link": "tool0", "reference": "world", "verify": True},
+    },
+    "ur5_batch_lwa": {
+        "summary": "UR5, a batch, local_world_aligned",
+        "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "link": "tool0", "reference": "local_world_aligned"},
+    },
+}
+DH_EXAMPLE_TABLE = {
+    "name": "example_rrp",
+    "convention": "standard",
+    "angles": "degrees",
+    "joints": [
+        {"type": "revolute", "a": 0, "alpha": -90, "d": 0.412, "theta": 0, "name": "j1", "limits": [-170, 170]},
+        {"type": "revolute", "a": 0, "alpha": 90, "d": 0.154, "theta": 0},
+        {"type": "prismatic", "a": 0, "alpha": 0, "d": 0, "theta": -90, "limits": [0.3, 1.2]},
+    ],
+    "base": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+    "tool": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1]],
+}
+DH_EXAMPLES = {"rrp_standard": {"summary": "an RRP arm, standard DH, degrees", "value": DH_EXAMPLE_TABLE}}
+TWO_LINK_URDF = """<robot name="two_link">
+  <link name="base"/><link name="upper"/><link name="tool"/>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <axis xyz="0 0 1"/><limit lower="-3.14" upper="3.14" effort="1" velocity="1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="tool"/>
+    <origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-3.14" upper="3.14" effort="1" velocity="1"/></joint>
+</robot>"""
+URDF_EXAMPLES = {"two_link_json": {"summary": "a planar 2R arm (JSON form)",
+                                   "value": {"urdf": TWO_LINK_URDF, "name": "two_link"}}}
+
+#: request bodies read by the handlers themselves (JSON or .npy), declared for OpenAPI
+REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, URDFUpload, DHTable, Problem)

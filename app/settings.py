@@ -1,0 +1,74 @@
+"""Service settings: one class, read from ``KIN_*`` environment variables, overridable in tests.
+
+Every limit the service enforces is here (no literal buried in a handler):
+
+=========================  ==========================  =======================================
+variable                   default                     meaning
+=========================  ==========================  =======================================
+``KIN_DATA_DIR``           ``./data`` (working dir)    uploaded and DH-built models (shared
+                                                       by every worker / replica)
+``KIN_MAX_MODEL_BYTES``    8 MiB                       a URDF or DH table body
+``KIN_MAX_REQUEST_BYTES``  64 MiB                      any request body
+``KIN_MAX_BATCH``          1,000,000                   configurations in one request
+``KIN_MAX_LINKS``          10,000                      links (and joints) in one model
+``KIN_MAX_VERIFY``         10,000                      configurations one ``verify`` may check
+``KIN_MAX_RESULT_VALUES``  32,000,000                  numbers in one FK / Jacobian answer
+``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
+``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
+``KIN_API_KEY``            (unset)                     when set, writes need it
+``KIN_API_KEY_FOR_READS``  ``false``                   when true (and a key is set), reads
+                                                       need it too
+=========================  ==========================  =======================================
+
+The key goes in ``X-API-Key: <key>`` or ``Authorization: Bearer <key>``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, SecretStr, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+MIB = 1024 * 1024
+
+
+class Settings(BaseSettings):
+    """Configuration of one service process (see the module docstring for the variables)."""
+
+    model_config = SettingsConfigDict(env_prefix="KIN_", extra="ignore")
+
+    data_dir: Path = Field(default=Path("data"), description="directory of uploaded and DH-built models")
+    max_model_bytes: int = Field(default=8 * MIB, gt=0, description="largest URDF or DH table body, bytes")
+    max_request_bytes: int = Field(default=64 * MIB, gt=0, description="largest request body, bytes")
+    max_batch: int = Field(default=1_000_000, gt=0, description="most configurations in one request")
+    max_links: int = Field(default=10_000, gt=0, description="most links (and joints) in one model")
+    max_verify: int = Field(default=10_000, gt=0, description="most configurations one verify=true may check")
+    max_result_values: int = Field(default=32_000_000, gt=0,
+                                   description="most numbers in one FK / Jacobian answer (N x links x 16, N x 6 x dof)")
+    cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    log_level: str = "info"
+    api_key: SecretStr | None = None
+    api_key_for_reads: bool = False
+
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _split_origins(cls, v):
+        if isinstance(v, str):
+            v = v.strip()
+            if v.startswith("["):
+                import json
+
+                return json.loads(v)
+            return [o.strip() for o in v.split(",") if o.strip()]
+        return v
+
+    @field_validator("api_key", mode="before")
+    @classmethod
+    def _empty_key_is_none(cls, v):
+        return None if v is None or (isinstance(v, str) and v == "") else v
+
+    def resolved_data_dir(self) -> Path:
+        """The data directory as an absolute path (relative paths are under the working directory)."""
+        return Path(self.data_dir).expanduser().resolve()
