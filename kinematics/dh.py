@@ -294,7 +294,6 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
         raise DHError(f"angles: {angles!r} is not one of {list(ANGLE_UNITS)}")
     angles = angles.lower()
     scale = math.pi / 180.0 if angles == "degrees" else 1.0
-    name = _name(d.get("name", DEFAULT_ROBOT_NAME), "name")
 
     joints = d.get("joints")
     if joints is None:
@@ -343,6 +342,7 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
         seen[jname] = i
         limits = _limits(raw.get("limits"), f"{where}.limits", scale if jtype == "revolute" else 1.0)
         rows.append(DHRow(type=jtype, name=jname, limits=limits, **values))
+    name = _name(d.get("name", DEFAULT_ROBOT_NAME), "name")
     base = _rigid(d["base"], "base", scale) if "base" in d else _frozen(np.eye(4))
     tool = _rigid(d["tool"], "tool", scale) if "tool" in d else _frozen(np.eye(4))
     return DHTable(name=name, convention=convention, rows=tuple(rows), base=base, tool=tool, angles=angles)
