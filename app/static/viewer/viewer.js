@@ -1,0 +1,778 @@
+// Model viewer: draws a model of the service as a kinematic skeleton and lets a person move
+// its joints. All kinematics comes from the service (POST /models/{id}/fk, /jacobian): this
+// file does no robotics math, it only places what the service returns.
+//
+// Frames: the scene is the world frame of the model (the root link's frame), z up, metres.
+// Every link pose comes from FK with links "all" as T_world_link (row-major 4x4).
+
+import * as THREE from "three";
+import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+
+const ROOT = document.body.dataset.root || "";
+const FK_LINKS_ALL = "all";
+const JACOBIAN_REFERENCE = "local_world_aligned";
+const CONTINUOUS_RANGE = Math.PI;         // slider range of a joint without limits (rad)
+const UNLIMITED_PRISMATIC_RANGE = 1.0;    // slider range of an unlimited prismatic joint (m)
+const SLIDER_STEPS = 10000;
+const VISUAL_OPACITY = 0.35;
+const TRIAD_FRACTION = 0.05;              // link triad length / model size
+const SELECTED_TRIAD_SCALE = 2.2;         // the selected link's triad is drawn this much larger
+const AXIS_ARROW_FRACTION = 0.1;          // joint axis arrow length / model size
+const DIGITS = 4;
+const API_KEY_STORAGE = "kinematics-api-key";  // sessionStorage: forgotten when the tab closes
+
+// Test hook (tests/test_viewer.py reads it); also handy from the browser console.
+const state = {
+  ready: false,
+  modelId: null,
+  fkRequests: 0,
+  fkResponses: 0,
+  jacobianRequests: 0,
+  selectedLink: null,
+  lastPose: null,
+  lastError: null,
+  dhBuilt: null,
+  dhBuilds: 0,
+  renders: 0,
+};
+window.viewerState = state;
+
+const $ = (id) => document.getElementById(id);
+
+// ---------------------------------------------------------------------------- API
+class ApiError extends Error {}
+
+async function api(path, { method = "GET", body, text = false } = {}) {
+  const init = { method, headers: {} };
+  const key = sessionStorage.getItem(API_KEY_STORAGE);
+  if (key) init.headers["X-API-Key"] = key;
+  if (body !== undefined) {
+    init.headers["Content-Type"] = "application/json";
+    init.body = JSON.stringify(body);
+  }
+  let response;
+  try {
+    response = await fetch(ROOT + path, init);
+  } catch (err) {
+    throw new ApiError(`${method} ${path}: the service cannot be reached (${err.message})`);
+  }
+  if (!response.ok) {
+    let detail = `${response.status} ${response.statusText}`;
+    try {
+      const problem = await response.json();
+      if (problem && problem.detail !== undefined) {
+        detail = typeof problem.detail === "string" ? problem.detail : JSON.stringify(problem.detail);
+      } else if (problem && problem.title) {
+        detail = problem.title;
+      }
+    } catch (_) { /* not JSON: keep the status line */ }
+    throw new ApiError(`${method} ${path}: ${detail}`);
+  }
+  return text ? response.text() : response.json();
+}
+
+function showError(err) {
+  const message = err instanceof Error ? err.message : String(err);
+  state.lastError = message;
+  $("error-text").textContent = message;
+  $("error").hidden = false;
+  console.warn(message);
+}
+
+function clearError() {
+  $("error").hidden = true;
+  state.lastError = null;
+}
+
+// ---------------------------------------------------------------------------- scene
+const host = $("canvas-host");
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(window.devicePixelRatio || 1);
+renderer.setClearColor(0xf7f8fa, 1);
+host.appendChild(renderer.domElement);
+
+const scene = new THREE.Scene();
+const camera = new THREE.PerspectiveCamera(45, 1, 0.001, 1000);
+camera.up.set(0, 0, 1);                   // robotics convention: z up
+camera.position.set(1.5, -1.5, 1.2);
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.addEventListener("change", () => requestRender());
+
+scene.add(new THREE.HemisphereLight(0xffffff, 0x8890a0, 2.0));
+const sun = new THREE.DirectionalLight(0xffffff, 1.5);
+sun.position.set(2, -3, 5);
+scene.add(sun);
+
+let grid = null;                          // ground grid in the world xy plane
+let robot = null;                         // THREE.Group holding the current model's objects
+
+let renderQueued = false;
+function requestRender() {
+  if (renderQueued) return;
+  renderQueued = true;
+  requestAnimationFrame(() => {
+    renderQueued = false;
+    renderer.render(scene, camera);
+    state.renders += 1;
+  });
+}
+
+function resize() {
+  const w = Math.max(1, host.clientWidth);
+  const h = Math.max(1, host.clientHeight);
+  renderer.setSize(w, h, false);
+  camera.aspect = w / h;
+  camera.updateProjectionMatrix();
+  requestRender();
+}
+new ResizeObserver(resize).observe(host);
+
+/** THREE.Matrix4 from a row-major nested 4x4 list (the API's `matrix`). */
+function matrixFromRows(rows) {
+  const m = new THREE.Matrix4();
+  m.set(...rows[0], ...rows[1], ...rows[2], ...rows[3]);
+  return m;
+}
+
+/** A mesh for one primitive visual (box/cylinder/sphere), in its link's frame; null for meshes. */
+function visualObject(visual, material) {
+  let geometry;
+  const s = visual.size;
+  if (visual.kind === "box") {
+    geometry = new THREE.BoxGeometry(s[0], s[1], s[2]);
+  } else if (visual.kind === "cylinder") {
+    // URDF cylinders run along z; three.js cylinders along y.
+    geometry = new THREE.CylinderGeometry(s[0], s[0], s[1], 24);
+    geometry.rotateX(Math.PI / 2);
+  } else if (visual.kind === "sphere") {
+    geometry = new THREE.SphereGeometry(s[0], 20, 14);
+  } else {
+    return null;
+  }
+  const mesh = new THREE.Mesh(geometry, material);
+  mesh.matrixAutoUpdate = false;
+  mesh.matrix.copy(matrixFromRows(visual.origin));   // T_link_visual
+  return mesh;
+}
+
+// ---------------------------------------------------------------------------- drawing helpers
+const Z_AXIS = new THREE.Vector3(0, 0, 1);
+const COLORS = { x: 0xd62728, y: 0x2ca02c, z: 0x1f5fd6, bone: 0x3b4256, revolute: 0xe0a000, prismatic: 0xb0179a };
+
+/** A solid arrow of unit length along +z (shaft from `from` to 1 - head, then a cone). */
+function unitArrowGeometry(from = 0, headFraction = 0.28, shaftRadius = 0.045, headRadius = 0.11) {
+  const shaftLength = 1 - headFraction - from;
+  const shaft = new THREE.CylinderGeometry(shaftRadius, shaftRadius, shaftLength, 10);
+  shaft.rotateX(Math.PI / 2);
+  shaft.translate(0, 0, from + shaftLength / 2);
+  const head = new THREE.ConeGeometry(headRadius, headFraction, 14);
+  head.rotateX(Math.PI / 2);
+  head.translate(0, 0, 1 - headFraction / 2);
+  return [shaft, head];
+}
+
+/** An RGB triad (x red, y green, z blue) of the given length, as one group. */
+function makeTriad(length, geometries, materials) {
+  const triad = new THREE.Group();
+  const directions = { x: new THREE.Euler(0, Math.PI / 2, 0), y: new THREE.Euler(-Math.PI / 2, 0, 0), z: new THREE.Euler() };
+  for (const axis of ["x", "y", "z"]) {
+    for (const g of geometries) {
+      const mesh = new THREE.Mesh(g, materials[axis]);
+      mesh.rotation.copy(directions[axis]);
+      triad.add(mesh);
+    }
+  }
+  triad.scale.setScalar(length);
+  return triad;
+}
+
+// ---------------------------------------------------------------------------- model state
+let model = null;       // GET /models/{id}
+let sliders = [];       // one per entry of joint_names: {name, input, value, lower, upper, type}
+let linkGroups = {};    // link name -> THREE.Group (matrix = T_world_link)
+let bones = [];         // {joint, mesh}: a rod from the parent link origin to the child link origin
+let axisArrows = [];    // {joint, arrow}: the joint axis through the joint (= child link) origin
+let lastPoses = null;   // link -> pose object of the last FK answer
+let fkInFlight = false;
+let fkPending = false;
+let modelSize = 1;
+let loadToken = 0;
+
+function disposeRobot() {
+  if (!robot) return;
+  scene.remove(robot);
+  const seen = new Set();
+  robot.traverse((o) => {
+    for (const r of [o.geometry, ...(Array.isArray(o.material) ? o.material : [o.material])]) {
+      if (r && !seen.has(r)) { seen.add(r); r.dispose(); }
+    }
+  });
+  robot = null;
+}
+
+function buildRobot(info, visuals, poses) {
+  disposeRobot();
+  robot = new THREE.Group();
+  linkGroups = {};
+  bones = [];
+  axisArrows = [];
+
+  // Size of the model at the first configuration: sets triad size, arrows and the camera.
+  const box = new THREE.Box3();
+  for (const link of info.links) box.expandByPoint(new THREE.Vector3(...poses[link].position));
+  const extent = box.getSize(new THREE.Vector3()).length();
+  modelSize = Math.max(extent, 0.2);
+  const triadLength = modelSize * TRIAD_FRACTION;
+  const rodRadius = modelSize * 0.006;
+
+  const triadGeometries = unitArrowGeometry(0, 0.25, 0.05, 0.12);
+  const triadMaterials = {
+    x: new THREE.MeshBasicMaterial({ color: COLORS.x }),
+    y: new THREE.MeshBasicMaterial({ color: COLORS.y }),
+    z: new THREE.MeshBasicMaterial({ color: COLORS.z }),
+  };
+  const visualMaterial = new THREE.MeshStandardMaterial({
+    color: 0x8fa3bf, transparent: true, opacity: VISUAL_OPACITY, depthWrite: false, side: THREE.DoubleSide,
+  });
+  for (const link of info.links) {
+    const group = new THREE.Group();
+    group.matrixAutoUpdate = false;
+    group.name = link;
+    const triad = makeTriad(triadLength, triadGeometries, triadMaterials);
+    triad.name = "triad";
+    group.add(triad);
+    for (const v of (visuals && visuals[link]) || []) {
+      const mesh = visualObject(v, visualMaterial);
+      if (mesh) group.add(mesh);
+    }
+    linkGroups[link] = group;
+    robot.add(group);
+  }
+
+  // Bones: a rod from every joint's parent link origin to its child link origin (unit
+  // length along +z, scaled and turned on every update), and a ball at each joint.
+  const rodGeometry = new THREE.CylinderGeometry(rodRadius, rodRadius, 1, 10);
+  rodGeometry.rotateX(Math.PI / 2);
+  rodGeometry.translate(0, 0, 0.5);
+  const boneMaterial = new THREE.MeshStandardMaterial({ color: COLORS.bone, roughness: 0.6 });
+  const ballGeometry = new THREE.SphereGeometry(rodRadius * 2.2, 14, 10);
+  for (const joint of info.joints) {
+    const mesh = new THREE.Mesh(rodGeometry, boneMaterial);
+    const ball = new THREE.Mesh(ballGeometry, boneMaterial);
+    bones.push({ joint, mesh, ball });
+    robot.add(mesh, ball);
+  }
+
+  // Joint axes: arrows through the child link origin along the joint axis (the axis is given
+  // in the joint frame, which is the child link frame), centred on the joint.
+  const arrowLength = modelSize * AXIS_ARROW_FRACTION;
+  const arrowGeometries = unitArrowGeometry(-0.5, 0.22, 0.03, 0.08);
+  const arrowMaterials = {
+    revolute: new THREE.MeshStandardMaterial({ color: COLORS.revolute }),
+    prismatic: new THREE.MeshStandardMaterial({ color: COLORS.prismatic }),
+  };
+  for (const joint of info.joints) {
+    if (joint.type === "fixed") continue;
+    const arrow = new THREE.Group();
+    const material = joint.type === "prismatic" ? arrowMaterials.prismatic : arrowMaterials.revolute;
+    for (const g of arrowGeometries) arrow.add(new THREE.Mesh(g, material));
+    arrow.scale.setScalar(arrowLength);
+    axisArrows.push({ joint, arrow });
+    robot.add(arrow);
+  }
+  scene.add(robot);
+
+  // Ground grid (1 2 5 steps) and world axes scaled to the model.
+  if (grid) { scene.remove(grid); grid.geometry.dispose(); grid.material.dispose(); }
+  const step = niceStep(modelSize / 5);
+  grid = new THREE.GridHelper(step * 20, 20, 0x9aa1b1, 0xd3d7df);
+  grid.rotateX(Math.PI / 2);             // GridHelper lies in xz; the ground is xy
+  scene.add(grid);
+
+  // Camera: a three-quarter view from above, aimed between the model's middle and its root,
+  // far enough to keep in view what the links can reach (their largest distance from the
+  // root) when the joints move.
+  const rootPosition = new THREE.Vector3(...poses[info.root].position);
+  let reach = 0;
+  for (const link of info.links) reach = Math.max(reach, rootPosition.distanceTo(new THREE.Vector3(...poses[link].position)));
+  reach = Math.max(reach, modelSize / 2, 0.1);
+  const center = box.getCenter(new THREE.Vector3()).lerp(rootPosition, 0.5);
+  const radius = reach + 0.5 * center.distanceTo(rootPosition);
+  const distance = radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2)) * 0.8;
+  camera.near = radius / 500;
+  camera.far = radius * 200;
+  camera.position.copy(center).add(new THREE.Vector3(1.0, -1.3, 0.8).normalize().multiplyScalar(distance));
+  camera.updateProjectionMatrix();
+  controls.target.copy(center);
+  controls.update();
+}
+
+/** The smallest of 1, 2, 5 x 10^k not below x. */
+function niceStep(x) {
+  const p = Math.pow(10, Math.floor(Math.log10(x)));
+  for (const m of [1, 2, 5, 10]) if (m * p >= x) return m * p;
+  return 10 * p;
+}
+
+function applyPoses(poses) {
+  lastPoses = poses;
+  for (const [link, group] of Object.entries(linkGroups)) {
+    const pose = poses[link];
+    if (!pose) continue;
+    group.matrix.copy(matrixFromRows(pose.matrix));
+    group.matrixWorldNeedsUpdate = true;
+  }
+  for (const { joint, mesh, ball } of bones) {
+    const a = new THREE.Vector3(...poses[joint.parent].position);
+    const b = new THREE.Vector3(...poses[joint.child].position);
+    const length = a.distanceTo(b);
+    mesh.visible = length > 1e-9;
+    mesh.position.copy(a);
+    if (mesh.visible) mesh.quaternion.setFromUnitVectors(Z_AXIS, b.clone().sub(a).divideScalar(length));
+    mesh.scale.set(1, 1, Math.max(length, 1e-9));
+    ball.position.copy(b);
+  }
+  for (const { joint, arrow } of axisArrows) {
+    const T = matrixFromRows(poses[joint.child].matrix);
+    const direction = new THREE.Vector3(...joint.axis).transformDirection(T);
+    arrow.position.setFromMatrixPosition(T);
+    arrow.quaternion.setFromUnitVectors(Z_AXIS, direction);
+  }
+  highlightSelected();
+  requestRender();
+}
+
+function highlightSelected() {
+  for (const [link, group] of Object.entries(linkGroups)) {
+    const triad = group.getObjectByName("triad");
+    if (triad) triad.scale.setScalar(modelSize * TRIAD_FRACTION * (link === state.selectedLink ? SELECTED_TRIAD_SCALE : 1));
+  }
+}
+
+// ---------------------------------------------------------------------------- sliders
+function fmt(x, digits = DIGITS) {
+  if (x === null || x === undefined) return "-";
+  if (typeof x === "string") return x;
+  if (!Number.isFinite(x)) return String(x);
+  const v = Math.abs(x) < 0.5 * Math.pow(10, -digits) ? 0 : x;   // no "-0.0000"
+  return v.toFixed(digits);
+}
+
+function sliderRange(joint) {
+  const lim = joint.limits;
+  const finite = lim && Number.isFinite(lim.lower) && Number.isFinite(lim.upper) && lim.upper > lim.lower;
+  if (finite) return [lim.lower, lim.upper];
+  if (joint.type === "prismatic") return [-UNLIMITED_PRISMATIC_RANGE, UNLIMITED_PRISMATIC_RANGE];
+  return [-CONTINUOUS_RANGE, CONTINUOUS_RANGE];
+}
+
+function initialValue(joint) {
+  const [lower, upper] = sliderRange(joint);
+  return Math.min(Math.max(0, lower), upper);
+}
+
+function buildSliders(info) {
+  const container = $("sliders");
+  container.replaceChildren();
+  sliders = [];
+  const byName = Object.fromEntries(info.joints.map((j) => [j.name, j]));
+  if (info.joint_names.length === 0) {
+    const p = document.createElement("p");
+    p.className = "hint";
+    p.textContent = "This model has no moving joint.";
+    container.appendChild(p);
+  }
+  info.joint_names.forEach((name, i) => {
+    const joint = byName[name];
+    const [lower, upper] = sliderRange(joint);
+    const initial = initialValue(joint);
+    const div = document.createElement("div");
+    div.className = "slider";
+    div.innerHTML = `<div class="label"><span class="name"></span><span class="value"></span></div>
+      <input type="range"><div class="range"></div>`;
+    div.querySelector(".name").textContent = name;
+    div.querySelector(".name").title = `${name} (${joint.type}) ${joint.parent} -> ${joint.child}`;
+    const input = div.querySelector("input");
+    input.min = String(lower);
+    input.max = String(upper);
+    input.step = String((upper - lower) / SLIDER_STEPS);
+    input.value = String(initial);
+    input.dataset.joint = name;
+    input.dataset.index = String(i);
+    input.setAttribute("aria-label", name);
+    const unit = joint.type === "prismatic" ? "m" : "rad";
+    const limited = joint.limits ? "" : " (no limits)";
+    div.querySelector(".range").textContent = `${joint.type} [${fmt(lower, 3)}, ${fmt(upper, 3)}] ${unit}${limited}`;
+    const slider = { name, joint, input, div, lower, upper, value: initial };
+    input.addEventListener("input", () => {
+      slider.value = Number(input.value);
+      showSliderValue(slider);
+      requestFk();
+    });
+    showSliderValue(slider);
+    sliders.push(slider);
+    container.appendChild(div);
+  });
+}
+
+function showSliderValue(slider) {
+  const text = slider.joint.type === "prismatic"
+    ? `${fmt(slider.value)} m`
+    : `${fmt(slider.value)} (${fmt(slider.value * 180 / Math.PI, 1)}°)`;
+  slider.div.querySelector(".value").textContent = text;
+}
+
+function setAll(values) {
+  sliders.forEach((s, i) => {
+    s.value = values[i];
+    s.input.value = String(values[i]);
+    showSliderValue(s);
+  });
+  requestFk();
+}
+
+function currentQ() {
+  return sliders.map((s) => s.value);
+}
+
+// ---------------------------------------------------------------------------- FK / Jacobian
+function requestFk() {
+  if (!model) return;
+  if (fkInFlight) { fkPending = true; return; }
+  runFk();
+}
+
+async function runFk() {
+  fkInFlight = true;
+  fkPending = false;
+  const id = model.id;
+  const token = loadToken;
+  const q = currentQ();
+  state.fkRequests += 1;
+  try {
+    const answer = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
+    if (token !== loadToken) return;
+    state.fkResponses += 1;
+    applyPoses(answer.poses);
+    showOutOfLimits(answer.out_of_limits || []);
+    await showSelectedPose(q);
+  } catch (err) {
+    showError(err);
+  } finally {
+    fkInFlight = false;
+    if (fkPending && token === loadToken) runFk();
+  }
+}
+
+function showOutOfLimits(names) {
+  const el = $("out-of-limits");
+  const list = Array.isArray(names[0]) ? names[0] : names;
+  sliders.forEach((s) => s.div.classList.toggle("out", list.includes(s.name)));
+  el.hidden = list.length === 0;
+  el.textContent = list.length ? `Outside limits: ${list.join(", ")}` : "";
+}
+
+async function showSelectedPose(q) {
+  const link = state.selectedLink;
+  if (!link || !lastPoses || !lastPoses[link]) return;
+  const pose = lastPoses[link];
+  const quat = pose.quaternion;
+  $("pose-link").textContent = link;
+  $("pose-position").textContent = pose.position.map((v) => fmt(v)).join(", ");
+  $("pose-quaternion").textContent = [quat.w, quat.x, quat.y, quat.z].map((v) => fmt(v)).join(", ");
+  $("pose-rpy").textContent = pose.rpy.map((v) => fmt(v)).join(", ");
+  $("pose-rpy-deg").textContent = pose.rpy.map((v) => fmt(v * 180 / Math.PI, 2)).join(", ");
+  state.lastPose = { link, position: pose.position, quaternion: quat, rpy: pose.rpy };
+  const id = model.id;
+  state.jacobianRequests += 1;
+  try {
+    const jac = await api(`/models/${encodeURIComponent(id)}/jacobian`, {
+      method: "POST", body: { q: q || currentQ(), link, reference: JACOBIAN_REFERENCE },
+    });
+    if (!model || model.id !== id || state.selectedLink !== link) return;
+    $("pose-manipulability").textContent = fmt(jac.manipulability, 6);
+    // JSON has no infinity: a singular Jacobian's condition number may come as null or a string
+    const cond = jac.condition_number;
+    $("pose-condition").textContent = cond === null || cond === "inf" || cond === "Infinity" ? "∞ (singular)" : fmt(cond, 3);
+    state.lastPose.manipulability = jac.manipulability;
+  } catch (err) {
+    $("pose-manipulability").textContent = "-";
+    $("pose-condition").textContent = "-";
+    showError(err);
+  }
+}
+
+// ---------------------------------------------------------------------------- links panel
+/** The leaf link farthest (in moving joints) from the root: a sensible first selection. */
+function defaultLink(info) {
+  const parentJoint = Object.fromEntries(info.joints.map((j) => [j.child, j]));
+  const hasChild = new Set(info.joints.map((j) => j.parent));
+  let best = info.root;
+  let bestDepth = -1;
+  for (const link of info.links) {
+    if (hasChild.has(link)) continue;
+    let depth = 0;
+    for (let j = parentJoint[link]; j; j = parentJoint[j.parent]) if (j.type !== "fixed") depth += 1;
+    if (depth > bestDepth) { best = link; bestDepth = depth; }
+  }
+  return best;
+}
+
+function buildLinkList(info) {
+  const list = $("link-list");
+  list.replaceChildren();
+  for (const link of info.links) {
+    const opt = document.createElement("option");
+    opt.value = link;
+    opt.textContent = link;
+    list.appendChild(opt);
+  }
+  state.selectedLink = defaultLink(info);
+  list.value = state.selectedLink;
+}
+
+$("link-list").addEventListener("change", () => {
+  state.selectedLink = $("link-list").value;
+  highlightSelected();
+  requestRender();
+  showSelectedPose();
+});
+
+// ---------------------------------------------------------------------------- loading
+async function loadCatalogue(selected) {
+  const models = await api("/models");
+  const list = Array.isArray(models) ? models : (models.models || []);
+  const picker = $("model-picker");
+  picker.replaceChildren();
+  const groups = {};
+  for (const m of list) {
+    const source = m.source || "other";
+    if (!groups[source]) {
+      groups[source] = document.createElement("optgroup");
+      groups[source].label = source;
+      picker.appendChild(groups[source]);
+    }
+    const opt = document.createElement("option");
+    opt.value = m.id;
+    opt.textContent = m.error ? `${m.id} (cannot be loaded)` : `${m.id} (${m.dof} dof)`;
+    if (m.error) { opt.disabled = true; opt.title = m.error; }
+    groups[source].appendChild(opt);
+  }
+  if (selected) picker.value = selected;
+  return list;
+}
+
+async function loadModel(id, { push = true } = {}) {
+  const token = ++loadToken;
+  state.ready = false;
+  clearError();
+  try {
+    const info = await api(`/models/${encodeURIComponent(id)}`);
+    let visuals = {};
+    try {
+      visuals = (await api(`/viewer/api/${encodeURIComponent(id)}/visuals`)).visuals || {};
+    } catch (err) {
+      showError(err);                    // the skeleton is still worth showing
+    }
+    // Start at q = 0 clamped into the limits (the sliders' initial values).
+    const byName = Object.fromEntries(info.joints.map((j) => [j.name, j]));
+    const q = info.joint_names.map((name) => initialValue(byName[name]));
+    state.fkRequests += 1;
+    const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
+    state.fkResponses += 1;
+    if (token !== loadToken) return;
+    model = info;
+    buildSliders(info);
+    if (model.id === undefined) model.id = id;
+    state.modelId = model.id;
+    buildLinkList(info);
+    buildRobot(info, visuals, fk.poses);
+    applyPoses(fk.poses);
+    showOutOfLimits(fk.out_of_limits || []);
+    $("model-picker").value = model.id;
+    $("model-summary").textContent = `${info.name || model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;
+    const meshCount = Object.values(visuals).flat().filter((v) => v.kind === "mesh").length;
+    const notes = [...(info.warnings || [])];
+    if (meshCount) notes.push(`${meshCount} mesh visual(s) not drawn (meshes are never loaded).`);
+    $("model-warnings").hidden = notes.length === 0;
+    $("model-warnings").textContent = notes.join(" ");
+    $("download-urdf").disabled = false;
+    $("dh-edit-current").hidden = !info.dh_table;
+    document.title = `${model.id} - model viewer`;
+    if (push) history.pushState({ id: model.id }, "", `${ROOT}/viewer/${encodeURIComponent(model.id)}`);
+    await showSelectedPose(q);
+    requestRender();
+    await new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve)));
+    if (token === loadToken) state.ready = true;
+  } catch (err) {
+    showError(err);
+  }
+}
+
+$("model-picker").addEventListener("change", () => loadModel($("model-picker").value));
+window.addEventListener("popstate", (e) => { if (e.state && e.state.id) loadModel(e.state.id, { push: false }); });
+$("btn-zero").addEventListener("click", () => setAll(sliders.map((s) => Math.min(Math.max(0, s.lower), s.upper))));
+$("btn-random").addEventListener("click", () => setAll(sliders.map((s) => s.lower + Math.random() * (s.upper - s.lower))));
+$("error-close").addEventListener("click", clearError);
+$("api-key").addEventListener("click", () => {
+  const key = window.prompt("API key of the service (sent as X-API-Key; kept for this tab only). Empty to forget it.",
+    sessionStorage.getItem(API_KEY_STORAGE) || "");
+  if (key === null) return;
+  if (key) sessionStorage.setItem(API_KEY_STORAGE, key); else sessionStorage.removeItem(API_KEY_STORAGE);
+  if (model) loadModel(model.id, { push: false }); else start();
+});
+
+async function downloadUrdf(id) {
+  try {
+    const text = await api(`/models/${encodeURIComponent(id)}/urdf`, { text: true });
+    const url = URL.createObjectURL(new Blob([text], { type: "application/xml" }));
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = `${id}.urdf`;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 1000);
+  } catch (err) {
+    showError(err);
+  }
+}
+$("download-urdf").addEventListener("click", () => model && downloadUrdf(model.id));
+
+// ---------------------------------------------------------------------------- tabs
+for (const button of document.querySelectorAll(".tabs button")) {
+  button.addEventListener("click", () => {
+    for (const b of document.querySelectorAll(".tabs button")) b.classList.toggle("active", b === button);
+    for (const tab of document.querySelectorAll(".tab")) tab.hidden = tab.id !== `tab-${button.dataset.tab}`;
+  });
+}
+
+// ---------------------------------------------------------------------------- DH editor
+const DH_EXAMPLE = [   // a planar 2R arm with a prismatic wrist lift (standard, degrees)
+  { type: "revolute", a: 0.4, alpha: 0, d: 0.3, theta: 0, lower: -170, upper: 170, name: "" },
+  { type: "revolute", a: 0.3, alpha: 180, d: 0, theta: 0, lower: -150, upper: 150, name: "" },
+  { type: "prismatic", a: 0, alpha: 0, d: 0.1, theta: 0, lower: 0, upper: 0.2, name: "" },
+];
+const DH_FIELDS = ["a", "alpha", "d", "theta", "lower", "upper"];
+
+function addDhRow(row = { type: "revolute", a: 0, alpha: 0, d: 0, theta: 0, lower: "", upper: "", name: "" }) {
+  const tr = document.createElement("tr");
+  const cells = [`<td class="idx"></td>`,
+    `<td><select data-field="type"><option value="revolute">R</option><option value="prismatic">P</option></select></td>`];
+  for (const f of DH_FIELDS) cells.push(`<td><input type="text" inputmode="decimal" data-field="${f}"></td>`);
+  cells.push(`<td><input type="text" data-field="name"></td>`);
+  cells.push(`<td><button type="button" class="remove" title="remove row">&minus;</button></td>`);
+  tr.innerHTML = cells.join("");
+  tr.querySelector('[data-field="type"]').value = row.type;
+  for (const f of [...DH_FIELDS, "name"]) tr.querySelector(`[data-field="${f}"]`).value = row[f] ?? "";
+  tr.querySelector(".remove").addEventListener("click", () => { tr.remove(); numberDhRows(); });
+  $("dh-table").tBodies[0].appendChild(tr);
+  numberDhRows();
+}
+
+function numberDhRows() {
+  [...$("dh-table").tBodies[0].rows].forEach((tr, i) => { tr.querySelector(".idx").textContent = String(i + 1); });
+}
+
+/** The DH table as POST /models/dh takes it; throws naming the row and column of bad input. */
+function readDhTable() {
+  const joints = [...$("dh-table").tBodies[0].rows].map((tr, i) => {
+    const get = (f) => tr.querySelector(`[data-field="${f}"]`).value.trim();
+    const num = (f, optional = false) => {
+      const text = get(f);
+      if (text === "" && optional) return null;
+      const v = Number(text);
+      if (text === "" || !Number.isFinite(v)) throw new Error(`DH row ${i + 1}, ${f}: "${text}" is not a number`);
+      return v;
+    };
+    const joint = { type: get("type"), a: num("a"), alpha: num("alpha"), d: num("d"), theta: num("theta") };
+    const lower = num("lower", true);
+    const upper = num("upper", true);
+    if ((lower === null) !== (upper === null)) throw new Error(`DH row ${i + 1}: give both limits or none`);
+    if (lower !== null) joint.limits = [lower, upper];
+    if (get("name")) joint.name = get("name");
+    return joint;
+  });
+  const table = {
+    name: $("dh-name").value.trim() || "dh_model",
+    convention: $("dh-convention").value,
+    angles: $("dh-angles").value,
+    joints,
+  };
+  for (const key of ["base", "tool"]) {
+    const text = $(`dh-${key}`).value.trim();
+    if (!text) continue;
+    try {
+      table[key] = JSON.parse(text);
+    } catch (_) {
+      throw new Error(`DH ${key}: not JSON (a 4x4 matrix as a list of 4 rows)`);
+    }
+  }
+  return table;
+}
+
+const IDENTITY = JSON.stringify([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]);
+
+/** Fill the editor from a DH table as the service returns it (model info's `dh_table`). */
+function fillDhEditor(table) {
+  $("dh-name").value = table.name || "";
+  $("dh-convention").value = table.convention || "standard";
+  $("dh-angles").value = table.angles || "radians";
+  $("dh-table").tBodies[0].replaceChildren();
+  for (const j of table.joints || []) {
+    const limits = j.limits || ["", ""];
+    addDhRow({ type: j.type, a: j.a, alpha: j.alpha, d: j.d, theta: j.theta, lower: limits[0], upper: limits[1], name: j.name || "" });
+  }
+  for (const key of ["base", "tool"]) {
+    const m = table[key];
+    $(`dh-${key}`).value = m && JSON.stringify(m) !== IDENTITY ? JSON.stringify(m) : "";
+  }
+}
+
+$("dh-add").addEventListener("click", () => addDhRow());
+$("dh-edit-current").addEventListener("click", () => { if (model && model.dh_table) fillDhEditor(model.dh_table); });
+$("dh-build").addEventListener("click", async () => {
+  const result = $("dh-result");
+  result.className = "";
+  result.textContent = "";
+  let table;
+  try {
+    table = readDhTable();
+  } catch (err) {
+    showError(err);
+    return;
+  }
+  try {
+    const info = await api("/models/dh", { method: "POST", body: table });
+    clearError();
+    state.dhBuilt = info.id;
+    state.dhBuilds += 1;
+    result.className = "ok";
+    result.textContent = `Built model ${info.id}: ${info.dof} dof, ${info.links.length} links.`;
+    $("dh-download").disabled = false;
+    $("dh-download").dataset.id = info.id;
+    await loadCatalogue(info.id);
+    await loadModel(info.id);
+  } catch (err) {
+    result.textContent = "Build failed (see the message above).";
+    showError(err);
+  }
+});
+$("dh-download").addEventListener("click", () => downloadUrdf($("dh-download").dataset.id));
+
+// ---------------------------------------------------------------------------- start
+async function start() {
+  if (!$("dh-table").tBodies[0].rows.length) DH_EXAMPLE.forEach((row) => addDhRow(row));
+  resize();
+  const fromPath = document.body.dataset.model || "";
+  try {
+    const list = await loadCatalogue(fromPath);
+    const id = fromPath || (list.find((m) => m.id === "ur5") || list[0] || {}).id;
+    if (!id) throw new ApiError("The catalogue is empty.");
+    history.replaceState({ id }, "", `${ROOT}/viewer/${encodeURIComponent(id)}`);
+    await loadModel(id, { push: false });
+  } catch (err) {
+    showError(err);
+  }
+}
+start();
