@@ -1,0 +1,87 @@
+ARG BASE_IMAGE=python:3.11-slim
+# The kinematics service as a container.
+#
+#   docker build -t kinematics .
+#   docker run -p 8000:8000 -v kin-data:/data kinematics
+#
+# BASE_IMAGE may be any Debian bookworm image: with Python (python:3.11-slim, the default)
+# or without it (CI passes a plain debootstrapped bookworm), in which case Python 3.11 is
+# installed from Debian's packages. Two stages: `build` makes a virtualenv with the
+# project and its dependencies (wheels only; no compiler is needed or shipped), `runtime`
+# copies that virtualenv onto a clean base and runs as a non-root user.
+#
+# Configuration is by environment variables only (app/settings.py lists the KIN_*
+# variables); PORT and WEB_CONCURRENCY set uvicorn's port and worker count. Uploaded and
+# DH-built models live in the volume /data (KIN_DATA_DIR), shared by every worker.
+
+FROM ${BASE_IMAGE} AS base
+ENV DEBIAN_FRONTEND=noninteractive \
+    PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1
+# Python from Debian only when the base has none (python:3.11-slim already has it).
+RUN if ! command -v python3 >/dev/null 2>&1; then \
+        apt-get update -q \
+        && apt-get install -y -q --no-install-recommends python3 \
+        && rm -rf /var/lib/apt/lists/* /var/cache/apt/archives/*.deb; \
+    fi \
+    && python3 -c 'import sys; assert sys.version_info >= (3, 11), sys.version'
+
+# ---------------------------------------------------------------- build stage
+FROM base AS build
+# venv + ensurepip come with python3-venv on Debian (the official python image has them built in)
+RUN python3 -m venv /opt/venv >/dev/null 2>&1 || { \
+        apt-get update -q \
+        && apt-get install -y -q --no-install-recommends python3-venv \
+        && rm -rf /var/lib/apt/lists/* \
+        && rm -rf /opt/venv && python3 -m venv /opt/venv; }
+ENV PATH=/opt/venv/bin:$PATH \
+    PIP_DISABLE_PIP_VERSION_CHECK=1
+WORKDIR /src
+# Dependencies first, from pyproject.toml alone (a stub package), so that editing the
+# source does not re-download ~700 MB of wheels.
+COPY pyproject.toml README.md ./
+RUN --mount=type=cache,target=/root/.cache/pip \
+    mkdir -p kinematics app \
+    && touch kinematics/__init__.py app/__init__.py \
+    && pip install -q --upgrade pip setuptools wheel \
+    && pip install -q . \
+    && pip uninstall -y -q kinematics-service \
+    && rm -rf kinematics app build *.egg-info
+# What the service never reads, removed from the venv (~600 MB): the meshes of the
+# example-robot-data URDFs (the service never opens files a URDF names; the URDFs and
+# SRDFs stay), C++ headers, CMake files and static libraries of the Pinocchio wheels,
+# and the packaging tools.
+RUN cd /opt/venv/lib/python3*/site-packages/cmeel.prefix \
+    && rm -rf include share/cmake share/doc lib/cmake lib/pkgconfig lib64/cmake lib64/pkgconfig \
+    && find . -name '*.a' -delete \
+    && find share/example-robot-data -type f \( -iname '*.stl' -o -iname '*.dae' -o -iname '*.obj' \
+         -o -iname '*.mtl' -o -iname '*.ply' -o -iname '*.png' -o -iname '*.jpg' \) -delete
+COPY kinematics ./kinematics
+COPY app ./app
+RUN --mount=type=cache,target=/root/.cache/pip \
+    pip install -q --no-deps --no-build-isolation . \
+    && python -c 'import kinematics, app.main; print("kinematics", kinematics.__version__)' \
+    && pip uninstall -y -q pip setuptools wheel \
+    && rm -rf /src
+
+# ---------------------------------------------------------------- runtime stage
+FROM base AS runtime
+RUN (getent group kin || groupadd --gid 10001 kin) \
+    && useradd --uid 10001 --gid kin --home-dir /home/kin --create-home --shell /usr/sbin/nologin kin \
+    && mkdir -p /data \
+    && chown kin:kin /data
+COPY --from=build /opt/venv /opt/venv
+# DH presets of the textbook robots (the example-robot-data catalogue is inside the venv)
+COPY models /opt/kinematics/models
+ENV PATH=/opt/venv/bin:$PATH \
+    KIN_DATA_DIR=/data \
+    KIN_MODELS_DIR=/opt/kinematics/models \
+    PORT=8000 \
+    WEB_CONCURRENCY=1
+VOLUME ["/data"]
+WORKDIR /home/kin
+USER kin
+EXPOSE 8000
+HEALTHCHECK --interval=30s --timeout=5s --start-period=20s --retries=3 \
+    CMD ["python", "-c", "import os, sys, urllib.request; r = urllib.request.urlopen('http://127.0.0.1:%s/health' % os.environ.get('PORT', '8000'), timeout=4); sys.exit(r.status != 200)"]
+CMD ["sh", "-c", "exec uvicorn app.main:app --host 0.0.0.0 --port ${PORT:-8000} --workers ${WEB_CONCURRENCY:-1}"]
