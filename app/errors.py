@@ -22,6 +22,7 @@ from kinematics.errors import (
     JointValueError,
     KinematicsError,
     LimitError,
+    ModelTooLargeError,
     NoDHFormError,
     ReferenceUnavailableError,
     UnknownLinkError,
@@ -39,6 +40,7 @@ PROBLEM_TYPE_PREFIX = "urn:kinematics:problem:"
 KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (UnknownModelError, 404, "unknown-model", "Unknown model"),
     (UnknownLinkError, 404, "unknown-link", "Unknown link"),
+    (ModelTooLargeError, 413, "model-too-large", "Model over the size limit"),
     (URDFError, 422, "invalid-urdf", "Invalid or unsupported URDF"),
     (DHError, 422, "invalid-dh-table", "Invalid Denavit-Hartenberg table"),
     (NoDHFormError, 422, "no-dh-form", "The model has no Denavit-Hartenberg form"),

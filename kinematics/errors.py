@@ -20,6 +20,10 @@ class UnsupportedJointError(URDFError):
     """A joint type the product does not support yet (floating, planar)."""
 
 
+class ModelTooLargeError(URDFError):
+    """A URDF with more links or joints than the configured limit (the API answers 413)."""
+
+
 class DHError(KinematicsError):
     """A Denavit-Hartenberg table that is malformed or inconsistent."""
 

@@ -20,7 +20,7 @@ import numpy as np
 from defusedxml import DefusedXmlException
 from defusedxml.ElementTree import fromstring as safe_fromstring
 
-from .errors import UnsupportedJointError, URDFError
+from .errors import ModelTooLargeError, UnsupportedJointError, URDFError
 from .model import MOVING_TYPES, SUPPORTED_TYPES, Joint, Limits, Mimic, RobotModel, Visual, _frozen
 from .transforms import AXIS_EPS
 
@@ -92,7 +92,7 @@ def _check_document(root: ET.Element, max_links: int) -> None:
     if not links:
         raise URDFError(f"robot {root.get('name')!r} has no <link>")
     if len(links) > max_links or len(joints) > max_links:
-        raise URDFError(
+        raise ModelTooLargeError(
             f"robot has {len(links)} links and {len(joints)} joints; the limit is {max_links}"
         )
     link_names: set[str] = set()

@@ -145,7 +145,7 @@ def _chain(n_links: int) -> str:
 
 def test_link_limit():
     assert len(parse_urdf(_chain(5), max_links=5).links) == 5
-    with pytest.raises(kerrors.URDFError, match="limit is 4"):
+    with pytest.raises(kerrors.ModelTooLargeError, match="limit is 4"):
         parse_urdf(_chain(5), max_links=4)
     with pytest.raises(kerrors.URDFError, match=f"limit is {DEFAULT_MAX_LINKS}"):
         parse_urdf(_chain(DEFAULT_MAX_LINKS + 1))
