@@ -260,7 +260,8 @@ def test_ur5_draws_moves_and_reports_the_pose(server, browser):
 
 @needs_browser
 def test_zero_and_random_buttons_move_the_sliders_within_limits(server, browser):
-    _open(browser, f"{server}/viewer/ur5")
+    _open(browser, f"{server}/viewer")  # no id: the page opens ur5 and says so in the address
+    assert browser.current_url == f"{server}/viewer/ur5" and _state(browser)["modelId"] == "ur5"
     browser.find_element(By.ID, "btn-random").click()
     _wait(browser, lambda d: any(abs(v) > 1e-6 for v in d.execute_script(
         "return [...document.querySelectorAll('#sliders input')].map(i => +i.value)")), "random values")
@@ -385,6 +386,16 @@ def test_static_route_serves_only_viewer_files(server, path):
     r = httpx.get(f"{server}/viewer/static/{path}")
     assert r.status_code == 404
     assert r.headers["content-type"].startswith("application/problem+json")
+
+
+@pytest.mark.parametrize("path", ["../routes/viewer.py", "../../main.py", "/etc/passwd", "vendor/../../static"])
+def test_static_handler_refuses_paths_outside_the_viewer_directory(path):
+    from app.errors import ProblemError
+    from app.routes.viewer import viewer_static
+
+    with pytest.raises(ProblemError) as info:
+        viewer_static(path)
+    assert info.value.status == 404
 
 
 def test_visuals_endpoint_lists_primitives_with_their_origins(server):
