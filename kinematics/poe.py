@@ -11,8 +11,11 @@ over the moving joints on the path from the root to ``L``. In a tree the prefix 
 ``P_j = P_parent(j) exp([S_j] q_j)`` are shared by every link below joint ``j``, so each
 exponential and each product is computed once per configuration.
 
-The kernels here are the straightforward reference: stacked ``(N, 4, 4)`` products. The
-fast structure-of-arrays kernels of :mod:`kinematics.kernels` must agree with them.
+``fk`` and ``jacobian`` run the fast structure-of-arrays kernels of
+:mod:`kinematics.kernels` (chunked, a few large array operations per joint). The
+straightforward implementation -- stacked ``(N, 4, 4)`` products, exactly the formulas
+above -- stays here as ``fk_reference`` and ``jacobian_reference``, the definition the
+kernels are tested against (to 1e-12, every catalogue model).
 
 Jacobians are 6 x dof, **linear rows first**, in one of three references (Pinocchio's
 meaning): ``world``, ``local``, ``local_world_aligned``.
@@ -169,9 +172,50 @@ class PoEModel:
             P[:, j] = E[:, j] if p < 0 else P[:, p] @ E[:, j]
         return P
 
-    # ------------------------------------------------------------------ FK
-    def fk(self, Q: np.ndarray, links: Sequence[str] | None = None) -> np.ndarray:
-        """Poses ``T_world_link`` of ``links`` (default all) for a batch q (N, dof): (N, L, 4, 4)."""
+    # ------------------------------------------------------------------ fast kernels
+    @property
+    def kernel(self):
+        """The structure-of-arrays :class:`~kinematics.kernels.Kernel` of this model (built once)."""
+        k = self.__dict__.get("_kernel")
+        if k is None:
+            from .kernels import Kernel
+
+            k = Kernel(self)
+            object.__setattr__(self, "_kernel", k)
+        return k
+
+    def fk(self, Q: np.ndarray, links: Sequence[str] | None = None, out: np.ndarray | None = None) -> np.ndarray:
+        """Poses ``T_world_link`` of ``links`` (default all) for a batch q (N, dof): (N, L, 4, 4).
+
+        ``out`` (optional, float64 C-contiguous of that shape) receives the result, so a caller
+        can reuse one buffer across calls. Same result as :meth:`fk_reference` (to ~1e-15).
+        """
+        Q = np.asarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
+        idx = None if links is None else self.link_indices(links)
+        if out is not None:
+            n_out = len(self.link_names) if idx is None else len(idx)
+            if out.shape != (Q.shape[0], n_out, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
+                raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
+        return self.kernel.fk(Q, idx, out=out)
+
+    def jacobian(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+        """Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``.
+
+        Same result as :meth:`jacobian_reference` (to ~1e-15).
+        """
+        if reference not in REFERENCES:
+            raise KinematicsError(f"unknown reference {reference!r}; expected one of {', '.join(REFERENCES)}")
+        li = int(self.link_indices([link])[0])
+        Q = np.asarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
+        return self.kernel.jacobian(Q, li, reference)
+
+    # ------------------------------------------------------------------ FK (reference)
+    def fk_reference(self, Q: np.ndarray, links: Sequence[str] | None = None) -> np.ndarray:
+        """Reference FK: poses of ``links`` (default all) for q (N, dof) by stacked 4x4 products."""
         idx = self.link_indices(links)
         Q = np.asarray(Q, dtype=float)
         P = self.prefix_products(Q)
@@ -181,7 +225,7 @@ class PoEModel:
             out[:, k] = self.M[li] if j < 0 else P[:, j] @ self.M[li]
         return out
 
-    # ------------------------------------------------------------------ Jacobians
+    # ------------------------------------------------------------------ Jacobians (reference)
     def path_mask(self, link_index: int) -> np.ndarray:
         """Boolean (n,) mask of the moving joints on the path from the root to the link."""
         mask = np.zeros(len(self.joint_names), dtype=bool)
@@ -191,8 +235,8 @@ class PoEModel:
             j = self.parent[j]
         return mask
 
-    def jacobian(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
-        """Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``."""
+    def jacobian_reference(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+        """Reference Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``."""
         if reference not in REFERENCES:
             raise KinematicsError(f"unknown reference {reference!r}; expected one of {', '.join(REFERENCES)}")
         li = int(self.link_indices([link])[0])
