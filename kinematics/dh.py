@@ -557,8 +557,9 @@ def table_to_urdf(table: DHTable) -> str:
 
     FK of link ``frame_i`` equals ``base A_1 ... A_i`` and FK of ``tool`` equals
     ``base A_1 ... A_n tool`` (to rounding, for both conventions). Joints carry the table's
-    names and limits (defaults when absent); every link but the helpers has a primitive
-    visual: a cylinder along each joint axis and a thin cylinder along each ``a`` and ``d``.
+    names and limits (defaults when absent); every link has primitive visuals: a cylinder
+    along each joint axis, a thin cylinder along each ``a`` and ``d`` and to the tool, a box
+    on ``world`` and ``tool``, and a small sphere on a link that would otherwise show nothing.
     """
     n = table.dof
     lengths = [abs(r.a) for r in table.rows] + [abs(r.d) for r in table.rows]
@@ -642,6 +643,13 @@ def table_to_urdf(table: DHTable) -> str:
         f'<visual><origin xyz="0 0 0" rpy="0 0 0"/><geometry><box size="{_fmt(0.08 * scale)} '
         f'{_fmt(0.08 * scale)} {_fmt(0.08 * scale)}"/></geometry><material name="dh_tool"/></visual>'
     )
+
+    for link, vs in visuals.items():  # every link shows at least its origin
+        if not vs:
+            vs.append(
+                f'<visual><origin xyz="0 0 0" rpy="0 0 0"/><geometry><sphere radius="{_fmt(rl)}"/></geometry>'
+                f'<material name="dh_link"/></visual>'
+            )
 
     order = ["world"]
     for i in range(n + 1):

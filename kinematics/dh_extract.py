@@ -55,6 +55,8 @@ EXTRACT_TOLERANCE = 1e-9
 VERIFY_SAMPLES = 8
 #: parameters closer than this to 0 (m) or to a multiple of pi/2 (rad) are snapped to it
 SNAP_TOLERANCE = 1e-13
+#: relative rounding allowed when a perpendicular offset is computed from a difference
+_ROUNDING = 1e-14
 #: x @ x_prev below -this flips the new x (ties keep the cross product's sign)
 _SIGN_EPS = 1e-9
 #: below this norm a projected candidate axis is not used to pick an x direction
@@ -87,6 +89,11 @@ def _perp(z: np.ndarray, candidates) -> np.ndarray:
     raise AssertionError("no perpendicular candidate")  # the world axes always give one
 
 
+def _distance_tolerance(r: np.ndarray) -> float:
+    """Distances below this are zero: :data:`COINCIDENT_TOLERANCE` plus the rounding of ``r``."""
+    return COINCIDENT_TOLERANCE + _ROUNDING * float(np.linalg.norm(r))
+
+
 def _foot(o: np.ndarray, p: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The point of the line ``(p, w)`` closest to ``o``."""
     return p + ((o - p) @ w) * w
@@ -96,7 +103,7 @@ def _common_normal(pa, wa, pb, wb):
     """Feet ``(Pa, Pb)`` of the common perpendicular of two non-parallel lines."""
     r = pb - pa
     c = wa @ wb
-    denom = 1.0 - c * c
+    denom = float(np.sum(np.cross(wa, wb) ** 2))  # sin^2 of the angle, without 1 - c^2 cancellation
     t = ((r @ wa) - c * (r @ wb)) / denom
     s = (c * (r @ wa) - (r @ wb)) / denom
     return pa + t * wa, pb + s * wb
@@ -115,7 +122,7 @@ def _next_x(prev: _Frame, p_next: np.ndarray, w_next: np.ndarray):
     else:  # parallel: the normal through prev.o
         r = p_next - prev.o
         r_perp = r - (r @ prev.z) * prev.z
-        if np.linalg.norm(r_perp) <= COINCIDENT_TOLERANCE:
+        if np.linalg.norm(r_perp) <= _distance_tolerance(r):
             return prev.x, prev.o, prev.o  # coincident: keep x, keep the origin
         x, pa, pb = r_perp / np.linalg.norm(r_perp), prev.o, prev.o + r_perp
     # x's sign is free (a and alpha change sign): keep theta's offset within +-90 degrees
@@ -203,7 +210,7 @@ def urdf_to_dh(model: RobotModel, tip: str | None = None, convention: str = "sta
         """(foot of the tip on the last axis, x pointing from the axis to the tip)."""
         foot = _foot(tip_o, line_p, line_w)
         r = tip_o - foot
-        if np.linalg.norm(r) > COINCIDENT_TOLERANCE:
+        if np.linalg.norm(r) > _distance_tolerance(tip_o - line_p):
             return foot, r / np.linalg.norm(r)
         return foot, _perp(line_w, [T_tip[:3, 0], T_tip[:3, 1], prev.x])
 
