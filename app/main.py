@@ -25,7 +25,7 @@ from .docs import install_docs
 from .errors import install_error_handlers
 from .middleware import BodySizeLimit
 from .registry import Registry
-from .responses import FastJSONResponse
+from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
 from .schemas import REQUEST_SCHEMAS
 from .settings import Settings
 
@@ -56,6 +56,22 @@ def _include_routers(app: FastAPI) -> None:
         app.include_router(module.router)
 
 
+def _document_problems(schema: dict) -> None:
+    """Every 4xx/5xx answer is ``application/problem+json`` with the ``Problem`` schema (what the
+    error handlers send), including FastAPI's default 422 (whose HTTPValidationError is dropped)."""
+    problem = {PROBLEM_MEDIA_TYPE: {"schema": {"$ref": "#/components/schemas/Problem"}}}
+    for path_item in schema.get("paths", {}).values():
+        for operation in path_item.values():
+            for status, response in operation.get("responses", {}).items():
+                if status[:1] in ("4", "5"):
+                    response["content"] = dict(problem)
+                    if response.get("description") == "Validation Error":
+                        response["description"] = "invalid request (the problem names the field)"
+    components = schema.get("components", {}).get("schemas", {})
+    for unused in ("HTTPValidationError", "ValidationError"):
+        components.pop(unused, None)
+
+
 def _custom_openapi(app: FastAPI):
     """OpenAPI with the schemas of request bodies the handlers read themselves (JSON or .npy)."""
 
@@ -68,16 +84,27 @@ def _custom_openapi(app: FastAPI):
         components = schema.setdefault("components", {}).setdefault("schemas", {})
         for name, s in defs.get("$defs", {}).items():
             components.setdefault(name, s)
+        _document_problems(schema)
         app.openapi_schema = schema
         return schema
 
     return openapi
 
 
+def _configure_logging(level: str) -> None:
+    """Level of the ``app`` loggers; a stderr handler when nothing else (uvicorn, pytest) handles them."""
+    logger = logging.getLogger("app")
+    logger.setLevel(level.upper())
+    if not logger.handlers and not logging.getLogger().handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(levelname)s:     %(name)s: %(message)s"))
+        logger.addHandler(handler)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service. ``settings`` default to the environment (``KIN_*``)."""
     settings = settings if settings is not None else Settings()
-    logging.getLogger("app").setLevel(settings.log_level.upper())
+    _configure_logging(settings.log_level)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):

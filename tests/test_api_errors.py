@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -120,6 +121,9 @@ def test_openapi_describes_bodies_and_examples(api_client):
     assert "q" in schemas["FKRequest"]["properties"]
     dh = spec["paths"]["/models/dh"]["post"]["requestBody"]["content"]["application/json"]
     assert dh["examples"]["rrp_standard"]["value"]["joints"]
+    # every $ref resolves
+    refs = re.findall(r'"\$ref":\s*"#/components/schemas/([^"]+)"', json.dumps(spec))
+    assert refs and not [r for r in refs if r not in schemas]
 
 
 def test_openapi_examples_work_as_is(api_client):
@@ -135,3 +139,21 @@ def test_openapi_examples_work_as_is(api_client):
                 assert r.status_code in (200, 201), (path, ex["summary"], r.text)
                 checked += 1
     assert checked >= 7
+
+
+def test_a_real_bug_is_a_logged_problem_500(api_data_dir, caplog):
+    from fastapi.testclient import TestClient
+
+    from app.main import create_app
+    from app.settings import Settings
+
+    app = create_app(Settings(data_dir=api_data_dir))
+    with TestClient(app, raise_server_exceptions=False) as c:
+        def broken(model_id):
+            raise RuntimeError("simulated bug")
+
+        app.state.registry.get = broken
+        r = c.get("/models/ur5")
+    assert_problem(r, 500)
+    assert "simulated bug" not in r.text  # internals are logged, not sent
+    assert "simulated bug" in caplog.text
