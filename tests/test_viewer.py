@@ -225,7 +225,9 @@ def test_ur5_draws_moves_and_reports_the_pose(server, browser):
     assert state["fkRequests"] > requests_before
 
     # the panel agrees with the service's own FK at the sliders' values
-    q = browser.execute_script("return [...document.querySelectorAll('#sliders input')].map(i => +i.value)")
+    q = state["lastQ"]
+    assert q == pytest.approx(browser.execute_script(
+        "return [...document.querySelectorAll('#sliders input')].map(i => +i.value)"), abs=1e-12)
     assert q[1] == pytest.approx(-1.2, abs=1e-2) and q[2] == pytest.approx(1.0, abs=1e-2)
     assert q[4] == pytest.approx(0.8, abs=1e-2)
     fk = httpx.post(f"{server}/models/ur5/fk", json={"q": q, "links": [selected]}).json()["poses"][selected]

@@ -29,6 +29,7 @@ const state = {
   fkResponses: 0,
   jacobianRequests: 0,
   selectedLink: null,
+  lastQ: null,        // q (joint_names order) of the poses drawn
   lastPose: null,
   lastError: null,
   dhBuilt: null,
@@ -197,6 +198,7 @@ let fkInFlight = false;
 let fkPending = false;
 let modelSize = 1;
 let loadToken = 0;
+let jacobianSeq = 0;
 
 function disposeRobot() {
   if (!robot) return;
@@ -453,6 +455,7 @@ async function runFk() {
     const answer = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
     if (token !== loadToken) return;
     state.fkResponses += 1;
+    state.lastQ = q;
     applyPoses(answer.poses);
     showOutOfLimits(answer.out_of_limits || []);
     await showSelectedPose(q);
@@ -484,18 +487,20 @@ async function showSelectedPose(q) {
   $("pose-rpy-deg").textContent = pose.rpy.map((v) => fmt(v * 180 / Math.PI, 2)).join(", ");
   state.lastPose = { link, position: pose.position, quaternion: quat, rpy: pose.rpy };
   const id = model.id;
+  const seq = ++jacobianSeq;             // only the latest answer is shown
   state.jacobianRequests += 1;
   try {
     const jac = await api(`/models/${encodeURIComponent(id)}/jacobian`, {
       method: "POST", body: { q: q || currentQ(), link, reference: JACOBIAN_REFERENCE },
     });
-    if (!model || model.id !== id || state.selectedLink !== link) return;
+    if (seq !== jacobianSeq || !model || model.id !== id || state.selectedLink !== link) return;
     $("pose-manipulability").textContent = fmt(jac.manipulability, 6);
     // JSON has no infinity: a singular Jacobian's condition number may come as null or a string
     const cond = jac.condition_number;
     $("pose-condition").textContent = cond === null || cond === "inf" || cond === "Infinity" ? "∞ (singular)" : fmt(cond, 3);
     state.lastPose.manipulability = jac.manipulability;
   } catch (err) {
+    if (seq !== jacobianSeq) return;
     $("pose-manipulability").textContent = "-";
     $("pose-condition").textContent = "-";
     showError(err);
@@ -581,6 +586,7 @@ async function loadModel(id, { push = true } = {}) {
     const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
     state.fkResponses += 1;
     if (token !== loadToken) return;
+    state.lastQ = q;
     model = info;
     buildSliders(info);
     if (model.id === undefined) model.id = id;
