@@ -117,6 +117,20 @@ class DHRow:
     name: str
     limits: tuple[float, float] | None = None
 
+    def __post_init__(self) -> None:
+        where = f"joint {self.name!r}"
+        if self.type not in JOINT_TYPES:
+            raise DHError(f"{where}.type: {self.type!r} is not one of {list(JOINT_TYPES)}")
+        for key in ("a", "alpha", "d", "theta"):
+            if not math.isfinite(getattr(self, key)):
+                raise DHError(f"{where}.{key}: {getattr(self, key)!r} is not finite")
+        if self.limits is not None:
+            lo, hi = self.limits
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise DHError(f"{where}.limits: {self.limits!r} are not finite")
+            if lo > hi:
+                raise DHError(f"{where}.limits: lower limit {lo} is above upper limit {hi}")
+
     @property
     def urdf_limits(self) -> tuple[float, float]:
         """The limits written into the URDF (the row's, or the default for its type)."""
@@ -145,6 +159,25 @@ class DHTable:
     base: np.ndarray = field(default_factory=lambda: _frozen(np.eye(4)))
     tool: np.ndarray = field(default_factory=lambda: _frozen(np.eye(4)))
     angles: str = "radians"
+
+    def __post_init__(self) -> None:
+        if self.convention not in CONVENTIONS:
+            raise DHError(f"convention: {self.convention!r} is not one of {list(CONVENTIONS)}")
+        if self.angles not in ANGLE_UNITS:
+            raise DHError(f"angles: {self.angles!r} is not one of {list(ANGLE_UNITS)}")
+        if not self.rows:
+            raise DHError("joints: a DH table needs at least one row")
+        for key in ("base", "tool"):
+            T = np.asarray(getattr(self, key))
+            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+                raise DHError(f"{key}: expected a finite 4x4 matrix")
+            R = T[:3, :3]
+            if (
+                np.max(np.abs(R.T @ R - np.eye(3))) > RIGID_TOLERANCE
+                or np.linalg.det(R) < 0
+                or np.max(np.abs(T[3] - [0, 0, 0, 1])) > RIGID_TOLERANCE
+            ):
+                raise DHError(f"{key}: not a rigid transform")
 
     @property
     def dof(self) -> int:
@@ -562,6 +595,14 @@ def table_to_urdf(table: DHTable) -> str:
     on ``world`` and ``tool``, and a small sphere on a link that would otherwise show nothing.
     """
     n = table.dof
+    reserved = _reserved_names(n, table.convention)
+    seen: set[str] = set()
+    for i, r in enumerate(table.rows):  # tables built in code (e.g. from a URDF) skip table_from_dict
+        if r.name in reserved:
+            raise DHError(f"joints[{i}].name: {r.name!r} is reserved for a link or fixed joint of the generated URDF")
+        if r.name in seen:
+            raise DHError(f"joints[{i}].name: {r.name!r} is used by another row")
+        seen.add(r.name)
     lengths = [abs(r.a) for r in table.rows] + [abs(r.d) for r in table.rows]
     lengths += [float(np.linalg.norm(table.tool[:3, 3]))]
     scale = max(lengths) if max(lengths) > VISUAL_MIN_LENGTH else VISUAL_DEFAULT_SCALE

@@ -504,3 +504,39 @@ def test_presets_directory_override(tmp_path):
     cat = Catalogue(robots_dir=tmp_path / "none", presets_dir=tmp_path)
     assert cat.ids() == ["my_arm"]
     assert cat.get("my_arm").joint_names == ("joint_1", "joint_2")
+
+
+def test_rows_and_tables_built_in_code_are_validated():
+    from kinematics.dh import DHRow
+
+    with pytest.raises(DHError, match="type"):
+        DHRow("helical", 0, 0, 0, 0, "j")
+    with pytest.raises(DHError, match="alpha"):
+        DHRow("revolute", 0, float("nan"), 0, 0, "j")
+    with pytest.raises(DHError, match="limits"):
+        DHRow("prismatic", 0, 0, 0, 0, "j", (1.0, 0.0))
+    row = DHRow("revolute", 0.1, 0, 0, 0, "j")
+    with pytest.raises(DHError, match="convention"):
+        DHTable("t", "craig", (row,))
+    with pytest.raises(DHError, match="tool: not a rigid"):
+        DHTable("t", "standard", (row,), tool=np.diag([1.0, 1.0, -1.0, 1.0]))
+    with pytest.raises(DHError, match="reserved"):
+        table_to_urdf(DHTable("t", "standard", (DHRow("revolute", 0.1, 0, 0, 0, "tool_joint"),)))
+    with pytest.raises(DHError, match="used by another row"):
+        table_to_urdf(DHTable("t", "modified", (row, row)))
+
+
+def test_generated_urdf_builds_a_yourdfpy_scene_of_primitives():
+    """What a URDF viewer does: yourdfpy builds the scene graph from the visual primitives."""
+    import io
+
+    import yourdfpy
+
+    for path in (DEFAULT_PRESETS_DIR / "kuka_lwr4.yaml", DEFAULT_PRESETS_DIR / "panda_dh.yaml"):
+        table = load_table(path)
+        robot = yourdfpy.URDF.load(io.BytesIO(table_to_urdf(table).encode()), build_scene_graph=True, load_meshes=True)
+        assert robot.validate()
+        assert len(robot.scene.geometry) >= 2 * table.dof
+        q = np.linspace(-0.5, 0.5, table.dof)
+        robot.update_cfg(q)
+        np.testing.assert_allclose(robot.get_transform("tool", "world"), dh_tool_pose(table, q)[0], atol=1e-12)
