@@ -105,7 +105,7 @@ def viewer_static(path: str) -> FileResponse:
 
 
 @router.get("/viewer/api/{model_id}/visuals", response_model=VisualsOut, summary="Primitive visuals of a model's links",
-            dependencies=[Depends(require_read_key)])
+            dependencies=[Depends(require_read_key)], responses={404: {"description": "unknown model"}})
 def viewer_visuals(model_id: ModelId, registry: RegistryDep) -> VisualsOut:
     """Per link, its URDF visual geometry: boxes, cylinders and spheres with ``origin`` =
     ``T_link_visual`` (4x4, row-major); meshes are listed by kind only (never opened)."""
