@@ -62,7 +62,15 @@ def _document_problems(schema: dict) -> None:
     problem = {PROBLEM_MEDIA_TYPE: {"schema": {"$ref": "#/components/schemas/Problem"}}}
     for path_item in schema.get("paths", {}).values():
         for operation in path_item.values():
-            for status, response in operation.get("responses", {}).items():
+            responses = operation.setdefault("responses", {})
+            if operation.get("security"):  # depends on the API key (writes; reads when protected)
+                responses.setdefault("401", {"description": "API key required (KIN_API_KEY set; for reads, "
+                                                            "KIN_API_KEY_FOR_READS=true)"})
+                responses.setdefault("403", {"description": "API key not valid"})
+            if "requestBody" in operation:  # the body-size middleware answers these on any body
+                responses.setdefault("400", {"description": "malformed request (Content-Length not a number)"})
+                responses.setdefault("413", {"description": "body over the size limit"})
+            for status, response in responses.items():
                 if status[:1] in ("4", "5"):
                     response["content"] = dict(problem)
                     if response.get("description") == "Validation Error":
