@@ -176,7 +176,12 @@ class Registry:
             if rec is None:
                 entry = self.catalogue.entry(model_id)
                 model = self.catalogue.get(model_id)
-                rec = ModelRecord(model_id, model.name, entry.source, model)
+                table = None
+                if entry.source == "preset":  # a DH preset: show the table it was built from
+                    from kinematics import dh
+
+                    table = dh.table_to_dict(dh.load_table(entry.path))
+                rec = ModelRecord(model_id, model.name, entry.source, model, dh_table=table)
                 with self._lock:
                     self._bundled[model_id] = rec
             return rec

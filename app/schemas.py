@@ -85,7 +85,8 @@ class ModelInfo(BaseModel):
     warnings: list[str]
     urdf_sha256: str
     created: str | None = Field(default=None, description="creation time (stored models)")
-    dh_table: dict[str, Any] | None = Field(default=None, description="the DH table a DH-built model came from")
+    dh_table: dict[str, Any] | None = Field(
+        default=None, description="the DH table a DH-built model or DH preset was built from (else null)")
 
 
 class URDFUpload(BaseModel):

@@ -213,3 +213,19 @@ def test_batch_and_verify_limits_are_413(make_client):
     r = c.post("/models/ur5/fk", json={"q": Q[:3], "links": ["tool0", "base_link"]})  # 3 x 2 x 16 > 80 numbers
     assert r.status_code == 413
     assert c.post("/models/ur5/fk", json={"q": Q[:2], "links": ["tool0", "base_link"]}).status_code == 200
+
+
+def test_verify_when_pinocchio_cannot_load_is_422(api_client, monkeypatch):
+    import kinematics.crosscheck as crosscheck
+    from kinematics.errors import ReferenceUnavailableError
+
+    def unavailable(*args, **kwargs):
+        raise ReferenceUnavailableError("Pinocchio cannot load model 'ur5': simulated")
+
+    monkeypatch.setattr(crosscheck, "compare_fk", unavailable)
+    monkeypatch.setattr(crosscheck, "compare_jacobian", unavailable)
+    for path in ("/models/ur5/fk", "/models/ur5/jacobian"):
+        r = api_client.post(path, json={"q": [0.0] * 6, "verify": True})
+        assert r.status_code == 422 and r.headers["content-type"] == PROBLEM
+        assert "simulated" in r.json()["detail"]
+        assert api_client.post(path, json={"q": [0.0] * 6}).status_code == 200  # without verify: fine

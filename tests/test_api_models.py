@@ -293,3 +293,19 @@ def test_dh_extraction_endpoint(api_client):
     assert r.status_code == 404 and r.json()["link"] == "no_such_link"
     r = api_client.get("/models/ur5/dh", params={"convention": "sideways"})
     assert r.status_code == 422 and r.json()["field"] == "convention"
+
+
+@needs_dh
+def test_dh_preset_is_listed_with_its_table_and_matches_the_closed_form(api_client):
+    presets = {m["id"]: m for m in api_client.get("/models").json() if m["source"] == "preset"}
+    assert presets["planar_2r"]["dof"] == 2
+    info = api_client.get("/models/planar_2r").json()
+    rows = info["dh_table"]["joints"]
+    l1, l2 = rows[0]["a"], rows[1]["a"]
+    q1, q2 = 0.4, -1.1
+    fk = api_client.post("/models/planar_2r/fk", json={"q": [q1, q2], "links": ["tool"]}).json()
+    # notes 001_*: p = (l1 c1 + l2 c12, l1 s1 + l2 s12, 0)
+    np.testing.assert_allclose(fk["poses"]["tool"]["position"],
+                               [l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2), 0.0],
+                               atol=1e-12)
+    assert api_client.delete("/models/planar_2r").status_code == 405
