@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinematics import as_batch, compile_model, conditioning, default_catalogue, pose_components
+from kinematics import compile_model, conditioning, default_catalogue, pose_components
 from kinematics.crosscheck import PINOCCHIO_VERSION, reference_for
 
 #: our PoE vs Pinocchio (DESIGN.md quality bar)

@@ -10,7 +10,7 @@ import pytest
 
 from app.registry import urdf_id
 from app.schemas import DH_EXAMPLE_TABLE, TWO_LINK_URDF
-from kinematics import compile_model, default_catalogue, parse_urdf
+from kinematics import compile_model, default_catalogue
 
 PROBLEM = "application/problem+json"
 
