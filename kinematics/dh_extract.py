@@ -41,7 +41,7 @@ import math
 import numpy as np
 
 from .dh import CONVENTIONS, DHRow, DHTable, dh_tool_pose
-from .errors import NoDHFormError, UnknownLinkError
+from .errors import DHError, NoDHFormError, UnknownLinkError
 from .model import RobotModel, _frozen
 from .poe import compile_model
 
@@ -186,8 +186,6 @@ def urdf_to_dh(model: RobotModel, tip: str | None = None, convention: str = "sta
     joint, an ill-conditioned chain), ``UnknownLinkError`` (unknown tip), ``DHError``
     (unknown convention).
     """
-    from .errors import DHError
-
     if convention not in CONVENTIONS:
         raise DHError(f"convention: {convention!r} is not one of {list(CONVENTIONS)}")
     tip, joints = _chain(model, tip)

@@ -94,3 +94,15 @@ def test_console_entry_point_has_no_traceback():
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and "tip" in proc.stderr
+
+
+def test_urdf2dh_check_reports_the_deviation(capsys):
+    assert main(["urdf2dh", "z1", "--check", "20", "--json"]) == 0
+    captured = capsys.readouterr()
+    json.loads(captured.out)  # stdout stays pure JSON
+    line = captured.err.strip()
+    assert line.startswith("check: standard DH vs URDF FK of 'gripperMover' at 20 random configurations")
+    pos = float(line.split("max position error ")[1].split(" m")[0])
+    rot = float(line.split("max rotation error ")[1])
+    assert 0 <= pos < 1e-9 and 0 <= rot < 1e-9
+    assert main(["urdf2dh", "z1", "--check", "0"]) == 2

@@ -103,17 +103,8 @@ def _params(table):
     return np.array([[r.a, r.alpha, r.d, r.theta] for r in table.rows])
 
 
-def test_standard_extraction_recovers_the_textbook_puma_table():
-    """The PUMA 560 URDF built from Corke's table gives Corke's table back (common normals,
-    intersecting and parallel axes), with identity base and tool."""
-    table = load_table(DEFAULT_PRESETS_DIR / "puma560_standard.yaml")
-    back = urdf_to_dh(parse_urdf(table_to_urdf(table)), convention="standard")
-    np.testing.assert_allclose(_params(back), _params(table), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(back.base, np.eye(4), atol=1e-12)
-    np.testing.assert_allclose(back.tool, np.eye(4), atol=1e-12)
-
-
 def test_modified_extraction_recovers_the_textbook_puma_table():
+    """Craig-style frames of the arm of puma560_standard.yaml: the modified preset."""
     std = load_table(DEFAULT_PRESETS_DIR / "puma560_standard.yaml")
     mod = load_table(DEFAULT_PRESETS_DIR / "puma560_modified.yaml")
     back = urdf_to_dh(parse_urdf(table_to_urdf(std)), convention="modified")
@@ -246,3 +237,22 @@ def test_ill_conditioned_nearly_parallel_axes_are_refused():
     """Axes 1e-8 rad apart: the common normal is 1e7 m away and the table cannot reach 1e-9."""
     with pytest.raises(NoDHFormError, match="nearly parallel"):
         urdf_to_dh(_near_parallel(1e-8))
+
+
+#: presets whose table is the one the extraction's frame rules pick (the others differ by a
+#: legitimate DH ambiguity: SCARA's heights along parallel axes, the Stanford arm's x signs,
+#: the Panda flange landing in d7)
+CANONICAL_PRESETS = [
+    "kuka_kr5_sixx", "kuka_lwr4", "planar_2r", "planar_3r", "puma560_modified", "puma560_standard",
+    "rhino", "rpr_example", "ur5_dh",
+]
+
+
+@pytest.mark.parametrize("stem", CANONICAL_PRESETS)
+def test_extraction_recovers_textbook_tables(stem):
+    table = load_table(DEFAULT_PRESETS_DIR / f"{stem}.yaml")
+    back = urdf_to_dh(parse_urdf(table_to_urdf(table)), convention=table.convention)
+    np.testing.assert_allclose(_params(back), _params(table), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(back.base, table.base, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(back.tool, table.tool, rtol=0, atol=1e-12)
+    assert [r.type for r in back.rows] == [r.type for r in table.rows]

@@ -19,6 +19,8 @@ from ..errors import KinematicsError
 from ..urdf import load_urdf
 
 EXIT_OK, EXIT_USAGE = 0, 2
+#: configurations of ``urdf2dh --check``
+CHECK_SAMPLES = 1000
 
 
 def register(sub) -> None:
@@ -44,6 +46,15 @@ def register(sub) -> None:
     p.add_argument("--convention", choices=("standard", "modified"), default="standard", help="default standard")
     p.add_argument("--degrees", action="store_true", help="angles in degrees (default radians)")
     p.add_argument("--json", action="store_true", help="print JSON (the shape dh2urdf and POST /models/dh read)")
+    p.add_argument(
+        "--check",
+        type=int,
+        nargs="?",
+        const=CHECK_SAMPLES,
+        metavar="N",
+        help=f"also report (on stderr) the largest deviation of the table's FK from the URDF's at N random "
+        f"configurations within the limits (default {CHECK_SAMPLES})",
+    )
     p.set_defaults(func=run_urdf2dh)
 
 
@@ -89,11 +100,32 @@ def run_urdf2dh(args) -> int:
     except KinematicsError as exc:
         return _error("urdf2dh", str(exc))
     angles = "degrees" if args.degrees else "radians"
+    if args.check is not None:
+        if args.check < 1:
+            return _error("urdf2dh", f"--check: {args.check} configurations; give at least 1")
+        print(check_line(model, table, args.tip, args.check), file=sys.stderr)
     if args.json:
         print(json.dumps(table_to_dict(table, angles=angles), indent=2))
     else:
         print(format_table(table, angles))
     return EXIT_OK
+
+
+def check_line(model, table: DHTable, tip: str | None, samples: int, seed: int = 0) -> str:
+    """One line: the largest deviation of ``base A_1..A_n tool`` from the URDF's FK of the tip."""
+    from ..dh import dh_tool_pose
+    from ..poe import compile_model
+
+    tip = tip or model.leaf_links[0]
+    Q = model.sample_configurations(samples, np.random.default_rng(seed), continuous_range=math.pi)
+    cols = [model.q_index[name] for name in table.joint_names]
+    diff = dh_tool_pose(table, Q[:, cols]) - compile_model(model).fk(Q, [tip])[:, 0]
+    pos = float(np.max(np.abs(diff[:, :3, 3])))
+    rot = float(np.max(np.abs(diff[:, :3, :3])))
+    return (
+        f"check: {table.convention} DH vs URDF FK of {tip!r} at {samples} random configurations: "
+        f"max position error {pos:.3g} m, max rotation error {rot:.3g}"
+    )
 
 
 def _num(v: float, digits: int = 6) -> str:
