@@ -18,10 +18,15 @@ FROM ${BASE_IMAGE} AS base
 ENV DEBIAN_FRONTEND=noninteractive \
     PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1
-# Python from Debian only when the base has none (python:3.11-slim already has it).
-RUN if ! command -v python3 >/dev/null 2>&1; then \
+# From Debian, only what the base lacks: Python (python:3.11-slim already has it) and the
+# runtime libraries the Pinocchio/Boost wheels link to but do not bundle (OpenMP, quadmath).
+RUN need=""; \
+    command -v python3 >/dev/null 2>&1 || need="python3"; \
+    ldconfig -p | grep -q 'libgomp\.so\.1 ' || need="$need libgomp1"; \
+    ldconfig -p | grep -q 'libquadmath\.so\.0 ' || need="$need libquadmath0"; \
+    if [ -n "$need" ]; then \
         apt-get update -q \
-        && apt-get install -y -q --no-install-recommends python3 \
+        && apt-get install -y -q --no-install-recommends $need \
         && rm -rf /var/lib/apt/lists/* /var/cache/apt/archives/*.deb; \
     fi \
     && python3 -c 'import sys; assert sys.version_info >= (3, 11), sys.version'
