@@ -10,7 +10,7 @@ import pytest
 from kinematics import compile_model, load_urdf, parse_urdf
 from kinematics.catalogue import DEFAULT_PRESETS_DIR
 from kinematics.dh import dh_tool_pose, load_table, table_from_dict, table_to_dict, table_to_urdf, urdf_to_dh
-from kinematics.dh_extract import EXTRACT_TOLERANCE, chain_configurations
+from kinematics.dh_extract import EXTRACT_TOLERANCE
 from kinematics.errors import DHError, NoDHFormError, UnknownLinkError
 
 from .conftest import FIXTURES
