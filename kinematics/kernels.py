@@ -59,8 +59,8 @@ if TYPE_CHECKING:  # pragma: no cover
 CHUNK_SIZE = 2048
 #: Elements per block of the polynomial sine/cosine (keeps its scratch in L2).
 SINCOS_BLOCK = 8192
-#: Batches up to this size take the small-batch path (one configuration at a time).
-SMALL_BATCH = 4
+#: Batches up to this size take the small-batch path (few numpy calls, batched 4x4 products).
+SMALL_BATCH = 16
 #: Largest |θ| for which the polynomial sine/cosine is used (exact reduction below 2^20 · π/2).
 SINCOS_MAX_ARG = 1.0e6
 #: An axis whose other components are at most this is taken as ± that coordinate axis
@@ -212,9 +212,8 @@ class _Plan:
     order: tuple[int, ...]  # joints to visit, parents first
     outputs: tuple[tuple[tuple[int, int, np.ndarray], ...], ...]  # per visited joint: (start, count, (13, 16·count))
     fixed: tuple[tuple[int, int], ...]  # (output index, link index) of links above every moving joint
-    one_joint: np.ndarray  # single-configuration path: for each moved output, its joint,
-    one_link: np.ndarray  # its link,
-    one_dst: np.ndarray  # and its output index
+    one_frame: np.ndarray  # single-configuration path, per output: the frame it hangs from (n: identity)
+    one_pose: np.ndarray  # (L', 4, 4) and the constant right factor (G_j^-1 M_L, or M_L)
 
 
 @dataclass
@@ -286,20 +285,36 @@ class Kernel:
         self.plain_q = bool(
             np.array_equal(self.q_index, np.arange(n)) and np.all(self.multiplier == 1.0) and np.all(self.offset == 0.0)
         )
-        # single-configuration path: joints grouped by depth (one batched product per depth)
-        self.levels = tuple(np.flatnonzero(depth == d) for d in range(self.n_depth))
         rot = self.kind == REVOLUTE
-        # CZ_j Z(θ) = CZ_j + a_j·A_j + b_j·B_j with (a, b) = (sin θ, 1 - cos θ) or (θ, 0)
+        # CZ_j Z(θ) = CZ_j + sin θ · CZ_j [z] + (1 - cos θ) · CZ_j [z]^2 (revolute; [z] the skew
+        # matrix of the z axis), written as w · basis with w = (1, sin θ, cos θ);
+        # prismatic: CZ_j + θ · CZ_j T_z with w = (1, θ, anything).
         Kz = np.zeros((4, 4))
         Kz[0, 1], Kz[1, 0] = -1.0, 1.0
         Tz = np.zeros((4, 4))
         Tz[2, 3] = 1.0
-        A = np.where(rot[:, None, None], CZ @ Kz, CZ @ Tz)
-        B = np.where(rot[:, None, None], CZ @ Kz @ Kz, 0.0)
-        self._basis = np.ascontiguousarray(np.stack([CZ, A, B], axis=1).reshape(n, 3, 16))
-        self._rot = rot
+        B = CZ @ Kz @ Kz
+        b0 = np.where(rot[:, None, None], CZ + B, CZ)
+        b1 = np.where(rot[:, None, None], CZ @ Kz, CZ @ Tz)
+        b2 = np.where(rot[:, None, None], -B, 0.0)
+        eye = np.zeros((1, 3, 16))
+        eye[0, 0] = np.eye(4).reshape(16)
+        self._basis = np.concatenate([np.stack([b0, b1, b2], axis=1).reshape(n, 3, 16), eye])  # (n + 1, 3, 16)
+        self._w_template = np.zeros((n + 1, 1, 3))
+        self._w_template[:, 0, 0] = 1.0
+        self._prismatic = np.flatnonzero(~rot)
+        # pointer jumping: after step s, F_j holds the product over its 2^(s+1) nearest ancestors
+        anc = np.where(poe.parent >= 0, poe.parent, n).astype(np.intp)
+        anc = np.append(anc, n)
+        jumps = []
+        span = 1
+        while span < self.n_depth:
+            jumps.append(anc.copy())
+            anc = anc[anc]
+            span *= 2
+        self._jumps = tuple(jumps)
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
-        for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth):
+        for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth, self._w_template):
             a.setflags(write=False)
 
     # ------------------------------------------------------------------ plans
@@ -337,13 +352,9 @@ class Kernel:
                 runs.append((items[start][0], stop - start, Dm))
                 start = stop
             outputs.append(tuple(runs))
-        moved = sorted((k, j, li) for j, items in per_joint.items() for k, li in items)
-        plan = _Plan(
-            order=order, outputs=tuple(outputs), fixed=tuple(fixed),
-            one_joint=np.array([j for _, j, _ in moved], dtype=np.intp),
-            one_link=np.array([li for _, _, li in moved], dtype=np.intp),
-            one_dst=np.array([k for k, _, _ in moved], dtype=np.intp),
-        )
+        one_frame = np.array([poe.link_joint[li] if poe.link_joint[li] >= 0 else self.n for li in idx], dtype=np.intp)
+        one_pose = np.array([self.D4[li] if poe.link_joint[li] >= 0 else poe.M[li] for li in idx]).reshape(len(idx), 4, 4)
+        plan = _Plan(order=order, outputs=tuple(outputs), fixed=tuple(fixed), one_frame=one_frame, one_pose=one_pose)
         if len(self._plans) < 256:  # bounded cache; a plan is immutable
             self._plans[key] = plan
         return plan
@@ -368,14 +379,13 @@ class Kernel:
             out = np.empty((N, n_out, 4, 4))
         if N == 0:
             return out
+        if N <= SMALL_BATCH and self.n:
+            np.matmul(self._frames_small(Q)[:, plan.one_frame], plan.one_pose, out=out)
+            return out
         M = self.poe.M
         for k, li in plan.fixed:
             out[:, k] = M[li]
         if not plan.order:
-            return out
-        if N <= SMALL_BATCH:
-            for i in range(N):
-                self._fk_one(Q[i], plan, out[i])
             return out
         flat = out.reshape(N, 16 * n_out)
         for a in range(0, N, chunk):
@@ -422,36 +432,26 @@ class Kernel:
             Fj[9:12] += w.t0
         return Fj
 
-    # ------------------------------------------------------------------ FK, one configuration
-    def _fk_one(self, q: np.ndarray, plan: _Plan, out: np.ndarray) -> None:
-        """All planned poses for one configuration q (dof,) into ``out`` (L', 4, 4)."""
-        F = self._frames_one(q)
-        out[plan.one_dst] = np.matmul(F[plan.one_joint], self.D4[plan.one_link])
+    # ------------------------------------------------------------------ small batches
+    def _frames_small(self, Q: np.ndarray) -> np.ndarray:
+        """Axis frames F (N, n + 1, 4, 4) of every moving joint for a small batch (F[:, n] = I).
 
-    def _frames_one(self, q: np.ndarray) -> np.ndarray:
-        """Axis frames F (n, 4, 4) of every moving joint for one configuration."""
+        ``CZ_j Z(θ_j)`` for all joints in one product, then the prefix products along the
+        tree by pointer jumping: ``ceil(log2(depth))`` batched products instead of ``n``.
+        Few numpy calls, so little overhead for one or a few configurations.
+        """
         n = self.n
-        th = q[self.q_index] if self.plain_q else q[self.q_index] * self.multiplier + self.offset
-        w = np.empty((n, 3))
-        w[:, 0] = 1.0
-        np.sin(th, out=w[:, 1])
-        np.cos(th, out=w[:, 2])
-        np.subtract(1.0, w[:, 2], out=w[:, 2])
-        rot = self._rot
-        if not rot.all():
-            w[~rot, 1] = th[~rot]
-            w[~rot, 2] = 0.0
-        CZ = np.matmul(w[:, None, :], self._basis).reshape(n, 4, 4)  # CZ_j · Z(θ_j)
-        F = np.empty((n, 4, 4))
-        parent = self.poe.parent
-        for d, level in enumerate(self.levels):
-            if d == 0:
-                F[level] = CZ[level]
-            elif len(level) == 1:
-                j = level[0]
-                np.matmul(F[parent[j]], CZ[j], out=F[j])
-            else:
-                F[level] = F[parent[level]] @ CZ[level]
+        N = Q.shape[0]
+        th = Q if self.plain_q else Q[:, self.q_index] * self.multiplier + self.offset
+        w = np.empty((N, n + 1, 1, 3))
+        w[...] = self._w_template
+        np.sin(th, out=w[:, :n, 0, 1])
+        np.cos(th, out=w[:, :n, 0, 2])
+        if self._prismatic.size:
+            w[:, self._prismatic, 0, 1] = th[:, self._prismatic]
+        F = np.matmul(w, self._basis).reshape(N, n + 1, 4, 4)  # CZ_j Z(θ_j); F[:, n] = I
+        for anc in self._jumps:
+            F = np.matmul(F[:, anc], F)
         return F
 
     # ------------------------------------------------------------------ Jacobians
@@ -481,6 +481,14 @@ class Kernel:
         mult = self.multiplier[path]
         plain = len(set(qi.tolist())) == len(qi) and bool(np.all(mult == 1.0))
         rev = self.kind[path] == REVOLUTE
+        if N <= SMALL_BATCH:
+            Js = self._jacobian_small(Q, path, rev, link_index, reference)  # (N, 6, k)
+            if plain:
+                J[:, :, qi] = Js
+            else:
+                for i in range(len(path)):
+                    J[:, :, qi[i]] += mult[i] * Js[:, :, i]
+            return J
         D4T = np.ascontiguousarray(self.D4[link_index].T)
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
@@ -548,3 +556,25 @@ class Kernel:
                     o += R[c, 2][None, :] * v[2]
             Js = out
         return Js
+
+    def _jacobian_small(self, Q, path, rev, link_index, reference) -> np.ndarray:
+        """(N, 6, k) Jacobian columns of the path joints for a small batch."""
+        F = self._frames_small(Q)
+        Fp = F[:, path]  # (N, k, 4, 4)
+        W = Fp[:, :, :3, 2]  # joint axes, world (N, k, 3)
+        P = Fp[:, :, :3, 3]  # points on the axes
+        if reference == "world":
+            Dp = -P
+        else:
+            T_L = F[:, path[-1]] @ self.D4[link_index]  # (N, 4, 4)
+            Dp = T_L[:, None, :3, 3] - P
+        lin = np.cross(W, Dp)
+        ang = W.copy()
+        if not rev.all():
+            lin[:, ~rev] = W[:, ~rev]
+            ang[:, ~rev] = 0.0
+        Js = np.concatenate([lin, ang], axis=2)  # (N, k, 6)
+        if reference == "local":
+            Rt = np.swapaxes(T_L[:, :3, :3], 1, 2)[:, None]  # (N, 1, 3, 3)
+            Js = np.concatenate([(Rt @ lin[..., None])[..., 0], (Rt @ ang[..., None])[..., 0]], axis=2)
+        return np.swapaxes(Js, 1, 2)
