@@ -449,6 +449,7 @@ class ResultWriter:
                 fd, self._tmp = tempfile.mkstemp(prefix=f".{os.path.basename(self._dest)}.", suffix=".part", dir=folder)
             except OSError as exc:
                 raise TrajectoryFileError(f"{self.name}: cannot write: {exc.strerror or exc}") from None
+            os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
             self._fh = os.fdopen(fd, "wb" if fmt == "npy" else "w", **({} if fmt == "npy" else {"encoding": "utf-8", "newline": "\n"}))
         else:
             if fmt == "npy":
@@ -532,6 +533,12 @@ class ResultWriter:
                     pass
                 self._tmp = None
         self._fh = None
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def npy_header(shape: tuple[int, ...]) -> bytes:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import stat
 import subprocess
 import sys
 import tracemalloc
@@ -120,6 +121,9 @@ def test_fk_npy_all_links_round_trip(tmp_path, ur5, Q, capsys):
     assert code == 0, err
     T = np.load(out, mmap_mode="r")
     assert T.shape == (len(Q), len(ur5.links), 4, 4) and T.dtype == np.float64
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert stat.S_IMODE(os.stat(out).st_mode) == 0o666 & ~umask  # not mkstemp's 0600
     np.testing.assert_allclose(T, compile_model(ur5).fk(Q), rtol=0, atol=TOL)
 
 
