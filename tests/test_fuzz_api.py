@@ -91,6 +91,7 @@ def test_api_conforms_to_its_schema(api_schema, method, path, mode):
     operation = api_schema[path][method]
     label = f"{method} {path} {mode}"
     RUN_COUNTS[label] = 0
+    statuses: dict[int, int] = {}
 
     @given(case=operation.as_strategy(generation_mode=mode), model=st.sampled_from([None] * 4 + KNOWN_MODELS))
     @settings(
@@ -104,7 +105,8 @@ def test_api_conforms_to_its_schema(api_schema, method, path, mode):
         RUN_COUNTS[label] += 1
         if model is not None and case.path_parameters and "model_id" in case.path_parameters:
             case.path_parameters["model_id"] = model
-        case.call_and_validate(checks=CHECKS)
+        response = case.call_and_validate(checks=CHECKS)
+        statuses[response.status_code] = statuses.get(response.status_code, 0) + 1
 
     try:
         run()
@@ -113,3 +115,86 @@ def test_api_conforms_to_its_schema(api_schema, method, path, mode):
             pytest.skip("no input to make invalid (no parameters, no body)")
         raise
     assert RUN_COUNTS[label] > 0
+    print(f"\nschemathesis {label}: {RUN_COUNTS[label]} cases, statuses {dict(sorted(statuses.items()))}")
+
+
+# ------------------------------------------------------------------ valid requests that reach the math
+VALID_MODELS = ["ur5", "planar_2r", "talos_reduced", _upload_id(ARM), _upload_id(MIMIC_TREE)]
+value = st.one_of(st.floats(-1e6, 1e6), st.sampled_from([0.0, -0.0, 1e-300, -1e6, 1e6, 3.141592653589793]))
+
+
+@st.composite
+def kinematics_requests(draw, infos):
+    """(model_id, kind, body): an FK or Jacobian request that is valid for the model."""
+    model_id = draw(st.sampled_from(VALID_MODELS))
+    info = infos[model_id]
+    names, links = info["joint_names"], info["links"]
+    n = draw(st.integers(1, 3))
+    rows = [[draw(value) for _ in names] for _ in range(n)]
+    shape = draw(st.sampled_from(["vector", "map", "batch", "batch_of_maps"]))
+    if shape == "vector":
+        q = rows[0]
+    elif shape == "map":
+        q = dict(zip(names, rows[0]))
+    elif shape == "batch":
+        q = rows
+    else:
+        q = [dict(zip(names, r)) for r in rows]
+    kind = draw(st.sampled_from(["fk", "jacobian"]))
+    body = {"q": q, "verify": draw(st.booleans())}
+    if kind == "fk":
+        body["links"] = draw(st.one_of(st.none(), st.just("all"), st.lists(st.sampled_from(links), min_size=1, max_size=4)))
+        body["format"] = draw(st.sampled_from(["pose", "matrix", "compact"]))
+        if body["links"] is None:
+            del body["links"]
+    else:
+        body["link"] = draw(st.sampled_from(links))
+        body["reference"] = draw(st.sampled_from(["world", "local", "local_world_aligned"]))
+    return model_id, kind, body
+
+
+def test_valid_kinematics_requests_conform_and_match_the_library(api_schema, fuzz_app):
+    """Valid FK / Jacobian requests (extreme but legal values, every q shape and option) answer
+    200, conform to the schema, and carry exactly the library's numbers."""
+    import numpy as np
+
+    from kinematics import as_batch, compile_model
+
+    registry = fuzz_app.state.registry
+    infos = {}
+    with TestClient(fuzz_app) as client:
+        for mid in VALID_MODELS:
+            infos[mid] = client.get(f"/models/{mid}").json()
+    counter = {"cases": 0}
+
+    @given(req=kinematics_requests(infos))
+    @settings(max_examples=3 * MAX_EXAMPLES, deadline=None, derandomize=True,
+              phases=[Phase.explicit, Phase.generate], suppress_health_check=list(HealthCheck))
+    def run(req):
+        model_id, kind, body = req
+        counter["cases"] += 1
+        operation = api_schema[f"/models/{{model_id}}/{kind}"]["POST"]
+        case = operation.Case(path_parameters={"model_id": model_id}, body=body, media_type="application/json")
+        response = case.call_and_validate(checks=CHECKS)
+        assert response.status_code == 200, response.text
+        answer = response.json()
+        model = registry.get(model_id).model
+        Q, is_batch = as_batch(model, body["q"])
+        poe = compile_model(model)
+        if kind == "jacobian":
+            J = poe.jacobian(Q, body["link"], body["reference"])
+            got = np.array(answer["jacobian"], dtype=float).reshape(J.shape)
+            np.testing.assert_array_equal(got, J)
+        elif body["format"] == "matrix":
+            links = answer["links"]
+            T = poe.fk(Q, links)
+            poses = answer["poses"] if is_batch else [answer["poses"]]
+            got = np.array([[p[link] for link in links] for p in poses], dtype=float)
+            np.testing.assert_array_equal(got, T)
+        if body["verify"]:
+            v = answer["verification"]
+            worst = max(v.get("max_position_error", 0), v.get("max_rotation_error", 0), v.get("max_jacobian_error", 0))
+            assert worst < 1e-9 * max(1.0, float(np.max(np.abs(Q))))
+
+    run()
+    print(f"\nschemathesis valid FK/Jacobian requests: {counter['cases']} cases, all 200 and equal to the library")
