@@ -61,11 +61,18 @@ RUN cd /opt/venv/lib/python3*/site-packages/cmeel.prefix \
     && find . -name '*.a' -delete \
     && find share/example-robot-data -type f \( -iname '*.stl' -o -iname '*.dae' -o -iname '*.obj' \
          -o -iname '*.mtl' -o -iname '*.ply' -o -iname '*.png' -o -iname '*.jpg' \) -delete
+# yourdfpy pulls in trimesh[easy]: mesh processing libraries (scipy, embree, pillow, shapely,
+# ...; ~250 MB) that trimesh imports only to load or process meshes, which this service
+# never does. The build checks below (parity of the catalogue with Pinocchio) prove the
+# URDF path works without them.
+RUN pip uninstall -y -q scipy embreex pillow networkx shapely manifold3d rtree vhacdx \
+        mapbox-earcut svg.path pycollada xxhash
 COPY kinematics ./kinematics
 COPY app ./app
 RUN --mount=type=cache,target=/root/.cache/pip \
     pip install -q --no-deps --no-build-isolation . \
     && python -c 'import kinematics, app.main; print("kinematics", kinematics.__version__)' \
+    && kinematics check --samples 1 | tail -1 \
     && pip uninstall -y -q pip setuptools wheel \
     && rm -rf /src
 
