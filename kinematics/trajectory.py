@@ -457,10 +457,14 @@ class ResultWriter:
             self._fh = dest
             self.name = name or getattr(dest, "name", "<stream>")
         self._tail: tuple[int, ...] | None = None
-        if fmt == "npy":
-            self._fh.write(b"\0" * NPY_HEADER_BYTES)  # the header is written on close
-        elif fmt == "csv":
-            cols = fk_columns(self.labels) if kind == "fk" else jacobian_columns(len(self.labels))
+        self._started = False  # the CSV header / npy placeholder go out with the first chunk (or on close)
+
+    def _start(self) -> None:
+        self._started = True
+        if self.fmt == "npy":
+            self._fh.write(b"\0" * NPY_HEADER_BYTES)  # the real header is written on close
+        elif self.fmt == "csv":
+            cols = fk_columns(self.labels) if self.kind == "fk" else jacobian_columns(len(self.labels))
             self._fh.write(",".join(cols) + "\n")
 
     def __enter__(self) -> "ResultWriter":
@@ -476,6 +480,8 @@ class ResultWriter:
         """Append a chunk of results: (n, L, 4, 4) for FK, (n, 6, dof) for Jacobians."""
         chunk = np.asarray(chunk, dtype=np.float64)
         n = chunk.shape[0]
+        if not self._started:
+            self._start()
         if self.fmt == "npy":
             if self._tail is None:
                 self._tail = tuple(chunk.shape[1:])
@@ -505,6 +511,8 @@ class ResultWriter:
         """Finish the output (the .npy header; the rename into place)."""
         if self._fh is None:
             return
+        if not self._started:
+            self._start()
         try:
             if self.fmt == "npy":
                 tail = self._tail

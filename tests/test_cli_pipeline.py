@@ -404,6 +404,7 @@ def test_subprocess_pipe_has_no_progress_bar(tmp_path, ur5, Q):
     proc = subprocess.run([sys.executable, "-m", "kinematics", "fk", "--model", "ur5", str(bad)],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and "line 2, column 4" in proc.stderr
+    assert proc.stdout == ""  # nothing half-written to stdout when the first chunk is bad
 
 
 # ============================================================================ memory bound
