@@ -295,14 +295,20 @@ class Kernel:
         Tz[2, 3] = 1.0
         B = CZ @ Kz @ Kz
         b0 = np.where(rot[:, None, None], CZ + B, CZ)
-        b1 = np.where(rot[:, None, None], CZ @ Kz, CZ @ Tz)
+        b1 = np.where(rot[:, None, None], CZ @ Kz, 0.0)
         b2 = np.where(rot[:, None, None], -B, 0.0)
-        eye = np.zeros((1, 3, 16))
+        b3 = np.where(rot[:, None, None], 0.0, CZ @ Tz)
+        eye = np.zeros((1, 4, 16))
         eye[0, 0] = np.eye(4).reshape(16)
-        self._basis = np.concatenate([np.stack([b0, b1, b2], axis=1).reshape(n, 3, 16), eye])  # (n + 1, 3, 16)
-        self._w_template = np.zeros((n + 1, 1, 3))
+        # (n + 1, 4, 16): w = (1, sin θ, cos θ, θ) times this is CZ_j Z(θ_j); the last slot is I
+        self._basis = np.concatenate([np.stack([b0, b1, b2, b3], axis=1).reshape(n, 4, 16), eye])
+        self._w_template = np.zeros((n + 1, 1, 4))
         self._w_template[:, 0, 0] = 1.0
-        self._prismatic = np.flatnonzero(~rot)
+        self._has_prismatic = bool((~rot).any())
+        # θ = Q @ q_map + offset (mimic joints: multiplier times the leader's column)
+        q_map = np.zeros((poe.model.dof, n))
+        q_map[self.q_index, np.arange(n)] = self.multiplier
+        self._q_map = q_map
         # pointer jumping: after step s, F_j holds the product over its 2^(s+1) nearest ancestors
         anc = np.where(poe.parent >= 0, poe.parent, n).astype(np.intp)
         anc = np.append(anc, n)
@@ -313,8 +319,16 @@ class Kernel:
             anc = anc[anc]
             span *= 2
         self._jumps = tuple(jumps)
+        # a chain prefix (parent of j is j - 1) then leaf joints hanging from it: slices, no gathers
+        m = 0
+        while m < n and poe.parent[m] == m - 1:
+            m += 1
+        rest = np.arange(m, n)
+        self._chain = m if n and np.all(poe.parent[rest] < m) and not np.isin(rest, poe.parent).any() else 0
+        self._chain_leaves = rest
+        self._chain_leaf_parents = np.asarray(poe.parent[rest], dtype=np.intp)
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
-        for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth, self._w_template):
+        for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth, self._w_template, self._q_map):
             a.setflags(write=False)
 
     # ------------------------------------------------------------------ plans
@@ -442,14 +456,27 @@ class Kernel:
         """
         n = self.n
         N = Q.shape[0]
-        th = Q if self.plain_q else Q[:, self.q_index] * self.multiplier + self.offset
-        w = np.empty((N, n + 1, 1, 3))
+        if self.plain_q:
+            th = Q
+        else:
+            th = Q @ self._q_map
+            th += self.offset
+        w = np.empty((N, n + 1, 1, 4))
         w[...] = self._w_template
         np.sin(th, out=w[:, :n, 0, 1])
         np.cos(th, out=w[:, :n, 0, 2])
-        if self._prismatic.size:
-            w[:, self._prismatic, 0, 1] = th[:, self._prismatic]
+        if self._has_prismatic:
+            w[:, :n, 0, 3] = th
         F = np.matmul(w, self._basis).reshape(N, n + 1, 4, 4)  # CZ_j Z(θ_j); F[:, n] = I
+        m = self._chain
+        if m:  # a chain prefix: the ancestors are slices (no gathers); then its leaf joints
+            span = 1
+            while span < m:
+                F[:, span:m] = np.matmul(F[:, :m - span], F[:, span:m])
+                span *= 2
+            if len(self._chain_leaves):
+                F[:, self._chain_leaves] = np.matmul(F[:, self._chain_leaf_parents], F[:, self._chain_leaves])
+            return F
         for anc in self._jumps:
             F = np.matmul(F[:, anc], F)
         return F

@@ -1,0 +1,61 @@
+"""Run every benchmark and print markdown tables (``python -m bench.run_all``, ``make bench``).
+
+Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service``,
+``--output bench/RESULTS.md`` (also write the tables there, with the date and the command),
+``--blas-threads N`` (default 1: Pinocchio's loop is single-threaded, so ours is too).
+
+To benchmark the BLAS kernel that matches this CPU, unset the OpenBLAS overrides in the
+benchmark command only: ``env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE python -m bench.run_all``;
+the machine table reports which kernel ran.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+
+from .common import Report, machine_info
+
+SUITES = ("kernels", "scaling", "service")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.run_all", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller batches and shorter loops")
+    parser.add_argument("--only", default=",".join(SUITES), help=f"comma-separated subset of {', '.join(SUITES)}")
+    parser.add_argument("--output", help="write the report (markdown) to this file")
+    parser.add_argument("--blas-threads", type=int, default=1, help="BLAS threads for our kernels (default 1)")
+    parser.add_argument("--command", help="the command line to record in the report (default: this one)")
+    args = parser.parse_args(argv)
+    suites = [s.strip() for s in args.only.split(",") if s.strip()]
+    unknown = [s for s in suites if s not in SUITES]
+    if unknown:
+        parser.error(f"unknown suite(s): {', '.join(unknown)} (choose from {', '.join(SUITES)})")
+
+    from threadpoolctl import threadpool_limits
+
+    command = args.command or "python -m bench.run_all " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    report = Report()
+    t0 = time.perf_counter()
+    with threadpool_limits(limits=args.blas_threads, user_api="blas"):
+        header = machine_info()
+        print(header, flush=True)
+        for name in suites:
+            module = __import__(f"bench.{name}", fromlist=["run"])
+            module.run(report, quick=args.quick)
+    elapsed = time.perf_counter() - t0
+    print(f"\nbenchmarks took {elapsed:.0f} s", flush=True)
+    if args.output:
+        with open(args.output, "w") as f:
+            f.write("# Benchmark results\n\n")
+            f.write(f"Command: `{command}` (BLAS limited to {args.blas_threads} thread(s) by threadpoolctl; "
+                    f"the run took {elapsed:.0f} s).\n\n")
+            f.write("## Machine\n\n" + header + "\n\n## Results\n\n")
+            f.write("\n".join(report.sections))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,247 @@
+"""The service end to end: a real uvicorn on a loopback port, started and stopped here.
+
+- a 10,000-configuration FK request (client encode, HTTP, server, decode) with the binary
+  ``.npy`` transport and with each JSON form, against Pinocchio's loop on the same configs;
+- single-configuration FK latency (p50) against ``/health`` on the same server;
+- requests per second for FK and ``/health`` with 1 and 2 uvicorn workers.
+Every loop is bounded in count and time; the server only listens on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import io
+import multiprocessing as mp
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import orjson
+import pinocchio as pin
+
+from kinematics import compile_model
+from kinematics.catalogue import default_catalogue
+
+from .common import Report, configurations, measure, ms, percentile_times, table, us
+from .kernels import _pinocchio
+
+ROOT = Path(__file__).resolve().parent.parent
+HOST = "127.0.0.1"
+NPY = "application/x-npy"
+#: Targets of issue 6.
+BATCH_TARGET = 1.5
+LATENCY_TARGET = 2.0
+#: Seconds to wait for uvicorn to answer /health.
+STARTUP_TIMEOUT = 60.0
+#: Seconds of load per (endpoint, worker count) in the throughput test, and client processes.
+LOAD_SECONDS = 3.0
+LOAD_CLIENTS = 2
+#: Requests per endpoint for the latency percentiles.
+LATENCY_REQUESTS = 300
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind((HOST, 0))
+        return s.getsockname()[1]
+
+
+@contextmanager
+def uvicorn_server(workers: int = 1):
+    """A uvicorn serving app.main:app on a free loopback port; yields its base URL."""
+    import httpx
+
+    port = _free_port()
+    with tempfile.TemporaryDirectory(prefix="kin-bench-") as data_dir:
+        env = dict(os.environ, KIN_DATA_DIR=data_dir, KIN_LOG_LEVEL="warning")
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "uvicorn", "app.main:app", "--host", HOST, "--port", str(port),
+             "--workers", str(workers), "--log-level", "warning", "--no-access-log"],
+            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        )
+        url = f"http://{HOST}:{port}"
+        try:
+            deadline = time.monotonic() + STARTUP_TIMEOUT
+            while True:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"uvicorn exited: {proc.stderr.read().decode(errors='replace')[-2000:]}")
+                try:
+                    if httpx.get(url + "/health", timeout=1.0).status_code == 200:
+                        break
+                except httpx.HTTPError:
+                    pass
+                if time.monotonic() > deadline:
+                    raise RuntimeError("uvicorn did not answer /health in time")
+                time.sleep(0.2)
+            yield url
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=5)
+
+
+def batch_request(report: Report, url: str, robot: str = "ur5", n: int = 10_000, rounds: int = 3) -> dict:
+    import httpx
+
+    model = default_catalogue().get(robot)
+    poe = compile_model(model)
+    Q = configurations(model, n)
+    _, pm, data, X = _pinocchio(model, Q)
+    expected = poe.fk(Q)
+    L = expected.shape[1]
+
+    def pin_loop():
+        for x in X:
+            pin.forwardKinematics(pm, data, x)
+            pin.updateFramePlacements(pm, data)
+
+    results = {}
+    with httpx.Client(base_url=url, timeout=120.0) as client:
+        def npy_call():
+            body = io.BytesIO()
+            np.save(body, Q, allow_pickle=False)
+            r = client.post(f"/models/{robot}/fk", params={"links": "all"}, content=body.getvalue(),
+                            headers={"Content-Type": NPY, "Accept": NPY})
+            r.raise_for_status()
+            return np.load(io.BytesIO(r.content), allow_pickle=False)
+
+        got = npy_call()
+        assert got.shape == expected.shape and np.max(np.abs(got - expected)) < 1e-12, "npy answer differs"
+
+        def json_call(fmt):
+            def call():
+                body = orjson.dumps({"q": Q.tolist(), "links": "all", "format": fmt})
+                r = client.post(f"/models/{robot}/fk", content=body, headers={"Content-Type": "application/json"})
+                r.raise_for_status()
+                return orjson.loads(r.content)
+            return call
+
+        answer = json_call("matrix")()
+        assert len(answer["poses"]) == n, "JSON batch answer has the wrong length"
+        t = measure({"pin": pin_loop, "npy": npy_call, "ours_library": lambda: poe.fk(Q)}, rounds=rounds, min_time=0.0)
+        for fmt in ("pose", "matrix", "compact"):
+            t[f"json {fmt}"] = measure({fmt: json_call(fmt)}, rounds=2, min_time=0.0)[fmt]
+        body_sizes = {"npy": len(npy_bytes(Q))}
+    rows = [["library call `fk(Q)` (no HTTP)", "-", ms(t["ours_library"]), f"{t['ours_library'] / t['pin']:.2f}", ""]]
+    ratio = t["npy"] / t["pin"]
+    rows.append(["`.npy` in, `.npy` out", f"{n * L * 16 * 8 / 2**20:.1f} MiB", ms(t["npy"]), f"**{ratio:.2f}**",
+                 "yes" if ratio <= BATCH_TARGET else "no"])
+    for fmt in ("pose", "matrix", "compact"):
+        rows.append([f"JSON in, JSON out, `format: {fmt}`", "", ms(t[f"json {fmt}"]),
+                     f"{t[f'json {fmt}'] / t['pin']:.2f}", ""])
+    rows.append(["Pinocchio loop (same configurations)", "-", ms(t["pin"]), "1.00", ""])
+    report.add(
+        f"Service: one FK request of {n:,} configurations, all {L} links of {robot}, end to end (ms)",
+        table(["transport", "answer size", "time (ms)", "ratio to Pinocchio", f"≤ {BATCH_TARGET}?"], rows),
+        "End to end in one client: encode the request (np.save / orjson of `Q.tolist()`), HTTP over "
+        "loopback to one uvicorn worker, server-side validation + FK + encoding, and decoding the answer "
+        "(np.load / orjson.loads). Best of a few rounds.",
+    )
+    results["npy_ratio"] = ratio
+    results.update({k: v for k, v in t.items()})
+    return results
+
+
+def npy_bytes(Q: np.ndarray) -> bytes:
+    b = io.BytesIO()
+    np.save(b, Q, allow_pickle=False)
+    return b.getvalue()
+
+
+def latency(report: Report, url: str, robot: str = "ur5") -> dict:
+    import httpx
+
+    model = default_catalogue().get(robot)
+    q = configurations(model, 1)[0].tolist()
+    with httpx.Client(base_url=url, timeout=30.0) as client:
+        def fk():
+            r = client.post(f"/models/{robot}/fk", content=orjson.dumps({"q": q}),
+                            headers={"Content-Type": "application/json"})
+            assert r.status_code == 200, r.text
+            return orjson.loads(r.content)
+
+        def health():
+            r = client.get("/health")
+            assert r.status_code == 200
+            return orjson.loads(r.content)
+
+        for _ in range(20):  # warm up
+            fk()
+            health()
+        t_fk, t_h = [], []
+        for _ in range(LATENCY_REQUESTS // 50):  # interleave blocks so both see the same load
+            t_fk.append(percentile_times(fk, 50))
+            t_h.append(percentile_times(health, 50))
+    t_fk, t_h = np.concatenate(t_fk), np.concatenate(t_h)
+    p = {name: (np.percentile(v, 50), np.percentile(v, 90)) for name, v in (("fk", t_fk), ("health", t_h))}
+    ratio = p["fk"][0] / p["health"][0]
+    report.add(
+        f"Service: single-configuration FK latency vs /health ({robot}, one worker, {len(t_fk)} requests each)",
+        table(["request", "p50 (ms)", "p90 (ms)", "p50 ratio to /health", f"≤ {LATENCY_TARGET}?"], [
+            [f"POST /models/{robot}/fk (JSON, one q, leaf links, format pose)", ms(p["fk"][0]), ms(p["fk"][1]),
+             f"**{ratio:.2f}**", "yes" if ratio <= LATENCY_TARGET else "no"],
+            ["GET /health", ms(p["health"][0]), ms(p["health"][1]), "1.00", ""],
+        ]),
+        "Sequential requests from one keep-alive httpx client over loopback.",
+    )
+    return {"ratio": ratio, "p50_fk": p["fk"][0], "p50_health": p["health"][0]}
+
+
+def _load_client(args) -> int:
+    url, path, body, seconds = args
+    import httpx
+
+    done = 0
+    deadline = time.monotonic() + seconds
+    with httpx.Client(base_url=url, timeout=30.0) as client:
+        while time.monotonic() < deadline:
+            if body is None:
+                r = client.get(path)
+            else:
+                r = client.post(path, content=body, headers={"Content-Type": "application/json"})
+            if r.status_code == 200:
+                done += 1
+    return done
+
+
+def throughput(report: Report, robot: str = "ur5", worker_counts=(1, 2)) -> dict:
+    model = default_catalogue().get(robot)
+    q = configurations(model, 1)[0].tolist()
+    fk_body = orjson.dumps({"q": q})
+    rows, results = [], {}
+    ctx = mp.get_context("spawn")
+    for workers in worker_counts:
+        with uvicorn_server(workers) as url:
+            with ctx.Pool(LOAD_CLIENTS) as pool:
+                pool.map(_load_client, [(url, "/health", None, 0.5)] * LOAD_CLIENTS)  # warm every worker
+                pool.map(_load_client, [(url, f"/models/{robot}/fk", fk_body, 0.5)] * LOAD_CLIENTS)
+                rps = {}
+                for name, path, body in (("fk", f"/models/{robot}/fk", fk_body), ("health", "/health", None)):
+                    counts = pool.map(_load_client, [(url, path, body, LOAD_SECONDS)] * LOAD_CLIENTS)
+                    rps[name] = sum(counts) / LOAD_SECONDS
+        results[workers] = rps
+        rows.append([workers, f"{rps['fk']:.0f}", f"{rps['health']:.0f}", f"{rps['fk'] / rps['health']:.2f}"])
+    report.add(
+        f"Service: requests per second ({LOAD_CLIENTS} client processes, {LOAD_SECONDS:.0f} s each)",
+        table(["uvicorn workers", f"FK ({robot}, one q) req/s", "/health req/s", "FK / health"], rows),
+        f"Client processes and server workers share this machine's {os.cpu_count()} cores, so the "
+        "figures bound what the server alone would do.",
+    )
+    return results
+
+
+def run(report: Report, quick: bool = False) -> dict:
+    out = {}
+    with uvicorn_server(1) as url:
+        out["batch"] = batch_request(report, url, n=2_000 if quick else 10_000)
+        out["latency"] = latency(report, url)
+    out["throughput"] = throughput(report, worker_counts=(1,) if quick else (1, 2))
+    return out
