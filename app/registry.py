@@ -43,6 +43,8 @@ from kinematics.catalogue import Catalogue
 from kinematics.errors import KinematicsError, UnknownModelError
 from kinematics.model import RobotModel
 
+from .errors import ProblemError
+
 log = logging.getLogger("app.registry")
 
 #: what a model id in a path may look like (no path separators, no "..")
@@ -228,8 +230,7 @@ class Registry:
         except UnknownModelError:
             pass
         meta = {"id": model_id, "name": name or model.name, "source": SOURCE_UPLOAD, "created": _now()}
-        atomic_write(self._meta_path(model_id), canonical_json(meta))
-        atomic_write(self._content_path(model_id), data)
+        self._store(model_id, meta, data)
         return self._load_stored(model_id), True
 
     def add_dh(self, table_dict: dict[str, Any], name: str | None = None) -> tuple[ModelRecord, bool]:
@@ -245,9 +246,19 @@ class Registry:
         except UnknownModelError:
             pass
         meta = {"id": model_id, "name": name or model.name, "source": SOURCE_DH, "created": _now()}
-        atomic_write(self._meta_path(model_id), canonical_json(meta))
-        atomic_write(self._content_path(model_id), canonical)
+        self._store(model_id, meta, canonical)
         return self._load_stored(model_id), True
+
+    def _store(self, model_id: str, meta: dict[str, Any], content: bytes) -> None:
+        """Sidecar, then content, each atomically. A disk that is full or read-only answers a 507
+        problem (nothing partial is left: a content file exists whole or not at all)."""
+        try:
+            atomic_write(self._meta_path(model_id), canonical_json(meta))
+            atomic_write(self._content_path(model_id), content)
+        except OSError as exc:
+            log.error("cannot store model %s in %s: %s", model_id, self.models_dir, exc)
+            raise ProblemError(507, f"model {model_id} could not be stored: {exc.strerror or exc}",
+                               slug="storage-error", title="Insufficient storage") from None
 
     def delete(self, model_id: str) -> None:
         """Remove a stored model (content file first, then its sidecar). Bundled ids are refused by the caller."""

@@ -66,6 +66,7 @@ def fuzz_app(tmp_path_factory):
         for data in (ARM, MIMIC_TREE):
             r = client.post("/models", content=data, headers={"Content-Type": "application/xml"})
             assert r.status_code in (200, 201), r.text
+        app.state.fuzz_client = client
         yield app
 
 
@@ -161,10 +162,11 @@ def test_valid_kinematics_requests_conform_and_match_the_library(api_schema, fuz
     from kinematics import as_batch, compile_model
 
     registry = fuzz_app.state.registry
-    infos = {}
-    with TestClient(fuzz_app) as client:
-        for mid in VALID_MODELS:
-            infos[mid] = client.get(f"/models/{mid}").json()
+    client = fuzz_app.state.fuzz_client
+    for data in (ARM, MIMIC_TREE):  # the generated DELETEs above may have removed them
+        r = client.post("/models", content=data, headers={"Content-Type": "application/xml"})
+        assert r.status_code in (200, 201), r.text
+    infos = {mid: client.get(f"/models/{mid}").json() for mid in VALID_MODELS}
     counter = {"cases": 0}
 
     @given(req=kinematics_requests(infos))

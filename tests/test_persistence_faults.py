@@ -23,8 +23,6 @@ import pytest
 
 from tests.hardening_live import LiveServer
 
-pytestmark = pytest.mark.slow
-
 UPLOADERS = 4
 #: acknowledged uploads to wait for before the kill (in-flight ones are what the kill hits)
 ACKS_BEFORE_KILL = 30
@@ -48,6 +46,7 @@ def _upload_id(data: bytes) -> str:
     return "u-" + hashlib.sha256(data).hexdigest()[:16]
 
 
+@pytest.mark.slow
 def test_sigkill_during_uploads_loses_no_acknowledged_model(tmp_path):
     data_dir = tmp_path / "data"
     attempted: dict[str, bytes] = {}
@@ -112,6 +111,7 @@ def test_sigkill_during_uploads_loses_no_acknowledged_model(tmp_path):
           f"{len(stored & in_flight)} of those stored whole, temp files left by the kill: {len(leftovers)}")
 
 
+@pytest.mark.slow
 def test_corrupt_and_foreign_files_are_skipped_with_a_warning(tmp_path):
     data_dir = tmp_path / "data"
     models = data_dir / "models"
@@ -166,3 +166,40 @@ def test_corrupt_and_foreign_files_are_skipped_with_a_warning(tmp_path):
     for skipped in (_upload_id(other), "u-0123456789abcdef", _upload_id(not_urdf), "u-fedcba9876543210",
                     "dh-0123456789abcdef", "u-aaaaaaaaaaaaaaaa"):
         assert any(skipped in line and "WARNING" in line for line in log.splitlines()), (skipped, log[-3000:])
+
+
+@pytest.mark.parametrize("failing_write", [1, 3], ids=["sidecar", "content"])  # 2: the directory fsync (best effort)
+def test_full_disk_is_a_507_and_leaves_nothing_partial(tmp_path, monkeypatch, failing_write):
+    """A write that fails (ENOSPC at fsync) answers a 507 problem; no temporary or content file is
+    left behind, the model is not listed, and the same upload succeeds once the disk has room."""
+    import errno
+
+    from fastapi.testclient import TestClient
+
+    import app.registry as registry_module
+    from app.main import create_app
+    from app.settings import Settings
+
+    body = _chain("full_disk")
+    models = tmp_path / "data" / "models"
+    real_fsync = os.fsync
+    calls = {"n": 0}
+
+    def fsync(fd):
+        calls["n"] += 1
+        if calls["n"] == failing_write:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_fsync(fd)
+
+    with TestClient(create_app(Settings(data_dir=tmp_path / "data")), raise_server_exceptions=False) as c:
+        monkeypatch.setattr(registry_module.os, "fsync", fsync)
+        r = c.post("/models", content=body, headers={"Content-Type": "application/xml"})
+        monkeypatch.setattr(registry_module.os, "fsync", real_fsync)
+        assert r.status_code == 507, r.text[:300]
+        assert r.headers["content-type"].startswith("application/problem+json")
+        assert "No space left on device" in r.json()["detail"]
+        assert not [p for p in models.iterdir() if p.name.startswith(".tmp-") or p.name.endswith(".urdf")]
+        assert [m for m in c.get("/models").json() if m["source"] == "upload"] == []
+        assert c.get(f"/models/{_upload_id(body)}").status_code == 404
+        r = c.post("/models", content=body, headers={"Content-Type": "application/xml"})
+        assert r.status_code == 201 and c.get(f"/models/{_upload_id(body)}/urdf").content == body

@@ -31,6 +31,7 @@ _WRITE_ERRORS = {
     403: {"model": Problem, "description": "API key invalid"},
     413: {"model": Problem, "description": "body over the size limit"},
     415: {"model": Problem, "description": "unsupported content type"},
+    507: {"model": Problem, "description": "the data directory cannot be written (full or read-only)"},
 }
 
 
