@@ -30,7 +30,7 @@ def _pinocchio(model, Q):
     return ref, pm, data, X
 
 
-def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 5) -> list[dict]:
+def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 15) -> list[dict]:
     cat = default_catalogue()
     rows, results = [], []
     for rid in robots:
@@ -64,7 +64,7 @@ def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 5) ->
     return results
 
 
-def jacobian_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 3) -> list[dict]:
+def jacobian_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 7) -> list[dict]:
     cat = default_catalogue()
     rows, results = [], []
     for rid in robots:
@@ -102,7 +102,7 @@ def _fkinspace(model, poe, q, link):
     return poe.M[li].copy(), poe.S[path].T.copy(), theta
 
 
-def single(report: Report, robots=ROBOTS, rounds: int = 7) -> list[dict]:
+def single(report: Report, robots=ROBOTS, rounds: int = 25) -> list[dict]:
     import modern_robotics as mr
 
     cat = default_catalogue()
@@ -124,7 +124,7 @@ def single(report: Report, robots=ROBOTS, rounds: int = 7) -> list[dict]:
             pin.updateFramePlacements(pm, data)
 
         t = measure({"ours": lambda: poe.fk(Q), "pin": pin_one, "mr": lambda: mr.FKinSpace(M, Slist, theta)},
-                    rounds=rounds, min_time=0.05)
+                    rounds=rounds, min_time=0.01)
         L = len(poe.link_names)
         r_pin = t["ours"] / t["pin"]
         r_mr = t["mr"] / t["ours"]

@@ -61,7 +61,7 @@ def versus_n(report: Report, robot: str = "ur5", sizes=SIZES, quick: bool = Fals
             fns["pin"] = pin_loop
             fns["jac"] = lambda Q=Q: poe.jacobian(Q, link, "world")
         big = n >= 100_000
-        t = measure(fns, rounds=2 if big else 5, min_time=0.0 if big else 0.05)
+        t = measure(fns, rounds=(2 if n > PIN_MAX_N else 3) if big else 9, min_time=0.0 if big else 0.01)
         result_bytes = n * L * 16 * 8
         _, scratch = _peak_scratch(lambda: poe.fk(Q), result_bytes)
         results.append({"n": n, "fk": t["fk"], "pin": t.get("pin")})
@@ -99,7 +99,7 @@ def versus_dof(report: Report, n: int = 10_000) -> list[dict]:
                 pin.forwardKinematics(pm, data, x)
                 pin.updateFramePlacements(pm, data)
 
-        t = measure({"fk": lambda: poe.fk(Q), "pin": pin_loop}, rounds=3, min_time=0.0)
+        t = measure({"fk": lambda: poe.fk(Q), "pin": pin_loop}, rounds=9, min_time=0.0)
         n_moving = len(poe.joint_names)
         results.append({"robot": rid, "dof": model.dof, "fk": t["fk"], "pin": t["pin"]})
         rows.append([rid, model.dof, n_moving, len(poe.link_names), us(t["fk"] / n),
