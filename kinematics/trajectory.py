@@ -53,6 +53,7 @@ from typing import IO
 import numpy as np
 
 from .errors import KinematicsError
+from .joints import MAX_ABS_JOINT_VALUE
 from .model import RobotModel
 from .transforms import matrix_to_quaternion, matrix_to_rpy
 
@@ -173,6 +174,12 @@ class JointRows:
         if bad.any():
             k, j = map(int, np.argwhere(bad)[0])
             raise TrajectoryFileError(f"{self.name}: {place(k, j)}: value {Q[k, j]} is not finite")
+        huge = np.abs(Q) > MAX_ABS_JOINT_VALUE  # as kinematics.as_batch: no FK overflow to inf
+        if huge.any():
+            k, j = map(int, np.argwhere(huge)[0])
+            raise TrajectoryFileError(
+                f"{self.name}: {place(k, j)}: value {Q[k, j]:g} is beyond +-{MAX_ABS_JOINT_VALUE:g}"
+            )
 
     # ------------------------------------------------------------------ npy
     def _npy_chunks(self):
