@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from kinematics import REFERENCES, as_batch, compile_model, parse_urdf
 
 #: examples per property (keeps the file in seconds on 2 cores)
-MAX_EXAMPLES = 60
+MAX_EXAMPLES = 100
 #: agreement with Pinocchio (DESIGN.md quality bar)
 PINOCCHIO_TOL = 1e-9
 #: rigid-transform checks on FK output
