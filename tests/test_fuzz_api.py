@@ -200,3 +200,35 @@ def test_valid_kinematics_requests_conform_and_match_the_library(api_schema, fuz
 
     run()
     print(f"\nschemathesis valid FK/Jacobian requests: {counter['cases']} cases, all 200 and equal to the library")
+
+
+# ------------------------------------------------------------------ a key-protected service
+PROTECTED_EXAMPLES = 8
+
+
+@pytest.fixture(scope="module")
+def protected_schema(tmp_path_factory):
+    settings = Settings(data_dir=tmp_path_factory.mktemp("fuzz-protected"), api_key="fuzz-key", api_key_for_reads=True)
+    app = create_app(settings)
+    with TestClient(app):
+        yield schemathesis.openapi.from_asgi("/openapi.json", app)
+
+
+@pytest.mark.parametrize("method, path", OPERATIONS, ids=[f"{m} {p}" for m, p in OPERATIONS])
+def test_protected_service_conforms_to_its_schema(protected_schema, method, path):
+    """With KIN_API_KEY set and reads protected, generated requests (no key, or a generated
+    X-API-Key / Authorization header) get documented answers: 401/403 problems where a key is needed."""
+    operation = protected_schema[path][method]
+    statuses: dict[int, int] = {}
+
+    @given(case=operation.as_strategy())
+    @settings(max_examples=PROTECTED_EXAMPLES, deadline=None, derandomize=True,
+              phases=[Phase.explicit, Phase.generate], suppress_health_check=list(HealthCheck))
+    def run(case):
+        response = case.call_and_validate(checks=CHECKS)
+        statuses[response.status_code] = statuses.get(response.status_code, 0) + 1
+
+    run()
+    if any(s in operation.definition.raw.get("responses", {}) for s in ("401", "403")):
+        assert set(statuses) <= {401, 403, 404, 405, 413, 415, 422}, statuses  # never served without the key
+    print(f"\nschemathesis protected {method} {path}: {sum(statuses.values())} cases, statuses {dict(sorted(statuses.items()))}")
