@@ -328,6 +328,7 @@ class Kernel:
         self._chain_leaves = rest
         self._chain_leaf_parents = np.asarray(poe.parent[rest], dtype=np.intp)
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
+        self._plan_all = self.plan(None)
         for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth, self._w_template, self._q_map):
             a.setflags(write=False)
 
@@ -387,14 +388,17 @@ class Kernel:
            chunk: int = CHUNK_SIZE) -> np.ndarray:
         """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof)."""
         N = Q.shape[0]
-        plan = self.plan(link_idx)
+        plan = self._plan_all if link_idx is None else self.plan(link_idx)
+        if 0 < N <= SMALL_BATCH and self.n:
+            F = self._frames_small(Q)[:, plan.one_frame]
+            if out is None:
+                return np.matmul(F, plan.one_pose)
+            np.matmul(F, plan.one_pose, out=out)
+            return out
         n_out = self.L if link_idx is None else len(link_idx)
         if out is None:
             out = np.empty((N, n_out, 4, 4))
         if N == 0:
-            return out
-        if N <= SMALL_BATCH and self.n:
-            np.matmul(self._frames_small(Q)[:, plan.one_frame], plan.one_pose, out=out)
             return out
         M = self.poe.M
         for k, li in plan.fixed:
@@ -461,8 +465,11 @@ class Kernel:
         else:
             th = Q @ self._q_map
             th += self.offset
-        w = np.empty((N, n + 1, 1, 4))
-        w[...] = self._w_template
+        if N == 1:
+            w = self._w_template[None].copy()
+        else:
+            w = np.empty((N, n + 1, 1, 4))
+            w[...] = self._w_template
         np.sin(th, out=w[:, :n, 0, 1])
         np.cos(th, out=w[:, :n, 0, 2])
         if self._has_prismatic:
@@ -471,8 +478,8 @@ class Kernel:
         m = self._chain
         if m:  # a chain prefix: the ancestors are slices (no gathers); then its leaf joints
             span = 1
-            while span < m:
-                F[:, span:m] = np.matmul(F[:, :m - span], F[:, span:m])
+            while span < m:  # (in and out overlap: numpy buffers the inputs)
+                np.matmul(F[:, :m - span], F[:, span:m], out=F[:, span:m])
                 span *= 2
             if len(self._chain_leaves):
                 F[:, self._chain_leaves] = np.matmul(F[:, self._chain_leaf_parents], F[:, self._chain_leaves])
@@ -517,13 +524,18 @@ class Kernel:
                     J[:, :, qi[i]] += mult[i] * Js[:, :, i]
             return J
         D4T = np.ascontiguousarray(self.D4[link_index].T)
+        lo = int(qi.min())
+        contiguous = plain and np.array_equal(qi, np.arange(lo, lo + len(qi)))
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
             Js = self._jacobian_chunk(Q[a:b], path, rev, D4T, reference)  # (6, k, C)
             Jc = J[a:b]
-            if plain:
-                Jc[:, :, qi] = np.moveaxis(Js, 2, 0)
-            else:
+            if contiguous:  # one transposing copy into a block of columns
+                np.copyto(Jc[:, :, lo:lo + len(qi)], Js.transpose(2, 0, 1))
+            elif plain:
+                for i in range(len(path)):
+                    np.copyto(Jc[:, :, qi[i]], Js[:, i, :].T)
+            else:  # mimic joints add their column (times the multiplier) to the leader's
                 for i in range(len(path)):
                     Jc[:, :, qi[i]] += mult[i] * Js[:, i, :].T
         return J
@@ -574,13 +586,16 @@ class Kernel:
         if reference == "local":
             R = U[:3]  # R[c, r] = R_world_L[r, c]
             out = np.empty_like(Js)
+            tmp = np.empty((k, C))
             for block in (0, 3):  # R^T v: component c = column c · v
                 v = Js[block:block + 3]
                 for c in range(3):
                     o = out[block + c]
-                    np.multiply(R[c, 0][None, :], v[0], out=o)
-                    o += R[c, 1][None, :] * v[1]
-                    o += R[c, 2][None, :] * v[2]
+                    np.multiply(v[0], R[c, 0], out=o)
+                    np.multiply(v[1], R[c, 1], out=tmp)
+                    o += tmp
+                    np.multiply(v[2], R[c, 2], out=tmp)
+                    o += tmp
             Js = out
         return Js
 

@@ -190,7 +190,8 @@ class PoEModel:
         ``out`` (optional, float64 C-contiguous of that shape) receives the result, so a caller
         can reuse one buffer across calls. Same result as :meth:`fk_reference` (to ~1e-15).
         """
-        Q = np.asarray(Q, dtype=float)
+        if type(Q) is not np.ndarray or Q.dtype != np.float64:
+            Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
         idx = None if links is None else self.link_indices(links)
