@@ -61,6 +61,8 @@ CHUNK_SIZE = 2048
 SINCOS_BLOCK = 8192
 #: Batches up to this size take the small-batch path (few numpy calls, batched 4x4 products).
 SMALL_BATCH = 16
+#: Visiting plans (per list of requested links) kept per model.
+PLAN_CACHE_SIZE = 256
 #: Largest |θ| for which the polynomial sine/cosine is used (exact reduction below 2^20 · π/2).
 SINCOS_MAX_ARG = 1.0e6
 #: An axis whose other components are at most this is taken as ± that coordinate axis
@@ -211,7 +213,7 @@ class _Plan:
 
     order: tuple[int, ...]  # joints to visit, parents first
     outputs: tuple[tuple[tuple[int, int, np.ndarray], ...], ...]  # per visited joint: (start, count, (13, 16·count))
-    fixed: tuple[tuple[int, int], ...]  # (output index, link index) of links above every moving joint
+    fixed: tuple[tuple[int, int, np.ndarray], ...]  # runs of links above every moving joint: (start, count, poses (16·count,))
     one_frame: np.ndarray  # single-configuration path, per output: the frame it hangs from (n: identity)
     one_pose: np.ndarray  # (L', 4, 4) and the constant right factor (G_j^-1 M_L, or M_L)
 
@@ -287,8 +289,8 @@ class Kernel:
         )
         rot = self.kind == REVOLUTE
         # CZ_j Z(θ) = CZ_j + sin θ · CZ_j [z] + (1 - cos θ) · CZ_j [z]^2 (revolute; [z] the skew
-        # matrix of the z axis), written as w · basis with w = (1, sin θ, cos θ);
-        # prismatic: CZ_j + θ · CZ_j T_z with w = (1, θ, anything).
+        # matrix of the z axis) or CZ_j + θ · CZ_j T_z (prismatic; T_z the unit z translation),
+        # written as w · basis with w = (1, sin θ, cos θ, θ) and a basis row of zeros where unused.
         Kz = np.zeros((4, 4))
         Kz[0, 1], Kz[1, 0] = -1.0, 1.0
         Tz = np.zeros((4, 4))
@@ -354,6 +356,15 @@ class Kernel:
                 needed[j] = True
                 j = int(poe.parent[j])
         order = tuple(j for j in self.dfs if needed[j])
+        fixed_runs = []
+        start = 0
+        while start < len(fixed):  # consecutive output positions: one broadcast assignment
+            stop = start + 1
+            while stop < len(fixed) and fixed[stop][0] == fixed[stop - 1][0] + 1:
+                stop += 1
+            poses = np.concatenate([poe.M[li].reshape(16) for _, li in fixed[start:stop]])
+            fixed_runs.append((fixed[start][0], stop - start, poses))
+            start = stop
         outputs = []
         for j in order:
             runs: list[tuple[int, int, np.ndarray]] = []
@@ -369,8 +380,11 @@ class Kernel:
             outputs.append(tuple(runs))
         one_frame = np.array([poe.link_joint[li] if poe.link_joint[li] >= 0 else self.n for li in idx], dtype=np.intp)
         one_pose = np.array([self.D4[li] if poe.link_joint[li] >= 0 else poe.M[li] for li in idx]).reshape(len(idx), 4, 4)
-        plan = _Plan(order=order, outputs=tuple(outputs), fixed=tuple(fixed), one_frame=one_frame, one_pose=one_pose)
-        if len(self._plans) < 256:  # bounded cache; a plan is immutable
+        plan = _Plan(order=order, outputs=tuple(outputs), fixed=tuple(fixed_runs), one_frame=one_frame,
+                     one_pose=one_pose)
+        for a in (one_frame, one_pose, *(p for _, _, p in fixed_runs), *(d for runs in outputs for _, _, d in runs)):
+            a.setflags(write=False)
+        if len(self._plans) < PLAN_CACHE_SIZE:  # bounded cache; a plan is immutable
             self._plans[key] = plan
         return plan
 
@@ -400,16 +414,15 @@ class Kernel:
             out = np.empty((N, n_out, 4, 4))
         if N == 0:
             return out
-        M = self.poe.M
-        for k, li in plan.fixed:
-            out[:, k] = M[li]
-        if not plan.order:
-            return out
         flat = out.reshape(N, 16 * n_out)
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
-            work = self._chunk_setup(Q[a:b])
             dst = flat[a:b]
+            for start, count, poses in plan.fixed:  # links above every moving joint: constants
+                dst[:, 16 * start:16 * (start + count)] = poses
+            if not plan.order:
+                continue
+            work = self._chunk_setup(Q[a:b])
             for j, runs in zip(plan.order, plan.outputs):
                 Fj = self._advance(work, j)
                 if runs:
