@@ -30,7 +30,7 @@ def _pinocchio(model, Q):
     return ref, pm, data, X
 
 
-def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 15) -> list[dict]:
+def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 25) -> list[dict]:
     cat = default_catalogue()
     rows, results = [], []
     for rid in robots:
@@ -64,7 +64,7 @@ def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 15) -
     return results
 
 
-def jacobian_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 7) -> list[dict]:
+def jacobian_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 11) -> list[dict]:
     cat = default_catalogue()
     rows, results = [], []
     for rid in robots:
@@ -102,7 +102,7 @@ def _fkinspace(model, poe, q, link):
     return poe.M[li].copy(), poe.S[path].T.copy(), theta
 
 
-def single(report: Report, robots=ROBOTS, rounds: int = 25) -> list[dict]:
+def single(report: Report, robots=ROBOTS, rounds: int = 60) -> list[dict]:
     import modern_robotics as mr
 
     cat = default_catalogue()

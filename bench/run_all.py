@@ -19,6 +19,8 @@ import time
 from .common import Report, machine_info
 
 SUITES = ("kernels", "scaling", "service")
+#: In the --output file, everything from this line on is kept when the tables are rewritten.
+NOTES_MARKER = "<!-- notes: kept by run_all -->"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,12 +50,22 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - t0
     print(f"\nbenchmarks took {elapsed:.0f} s", flush=True)
     if args.output:
+        notes = ""
+        try:  # keep the hand-written reading of the results below the marker
+            with open(args.output) as f:
+                old = f.read()
+            if NOTES_MARKER in old:
+                notes = old[old.index(NOTES_MARKER):]
+        except OSError:
+            pass
         with open(args.output, "w") as f:
             f.write("# Benchmark results\n\n")
             f.write(f"Command: `{command}` (BLAS limited to {args.blas_threads} thread(s) by threadpoolctl; "
                     f"the run took {elapsed:.0f} s).\n\n")
             f.write("## Machine\n\n" + header + "\n\n## Results\n\n")
             f.write("\n".join(report.sections))
+            if notes:
+                f.write("\n" + notes)
     return 0
 
 

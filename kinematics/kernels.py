@@ -311,6 +311,7 @@ class Kernel:
         q_map = np.zeros((poe.model.dof, n))
         q_map[self.q_index, np.arange(n)] = self.multiplier
         self._q_map = q_map
+        self._has_offset = bool(np.any(self.offset != 0.0))
         # pointer jumping: after step s, F_j holds the product over its 2^(s+1) nearest ancestors
         anc = np.where(poe.parent >= 0, poe.parent, n).astype(np.intp)
         anc = np.append(anc, n)
@@ -477,7 +478,8 @@ class Kernel:
             th = Q
         else:
             th = Q @ self._q_map
-            th += self.offset
+            if self._has_offset:
+                th += self.offset
         if N == 1:
             w = self._w_template[None].copy()
         else:
