@@ -9,6 +9,7 @@ import pinocchio as pin
 from kinematics import compile_model
 from kinematics.catalogue import default_catalogue
 from kinematics.crosscheck import reference_for
+from kinematics.kernels import aligned_empty
 
 from .common import ROBOTS, Report, configurations, measure, table, tool_link, us
 
@@ -38,7 +39,7 @@ def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 25) -
         poe = compile_model(model)
         Q = configurations(model, n)
         _, pm, data, X = _pinocchio(model, Q)
-        buf = np.empty((n, len(poe.link_names), 4, 4))
+        buf = aligned_empty((n, len(poe.link_names), 4, 4))
 
         def pin_loop():
             for x in X:

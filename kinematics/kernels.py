@@ -61,6 +61,8 @@ CHUNK_SIZE = 2048
 SINCOS_BLOCK = 8192
 #: Batches up to this size take the small-batch path (few numpy calls, batched 4x4 products).
 SMALL_BATCH = 16
+#: Bytes of a cache line: results and frame buffers start on such a boundary.
+CACHE_LINE = 64
 #: Visiting plans (per list of requested links) kept per model.
 PLAN_CACHE_SIZE = 256
 #: Largest |θ| for which the polynomial sine/cosine is used (exact reduction below 2^20 · π/2).
@@ -162,6 +164,18 @@ def sincos(theta: np.ndarray, s: np.ndarray | None = None, c: np.ndarray | None 
         w = j - i
         _sincos_block(flat[i:j], sf[i:j], cf[i:j], *(x[:w] for x in scratch))
     return s, c
+
+
+def aligned_empty(shape: tuple[int, ...], align: int = CACHE_LINE) -> np.ndarray:
+    """An uninitialised C-contiguous float64 array whose data starts on an ``align``-byte boundary.
+
+    numpy's allocations are 16-byte aligned; a 4x4 pose (128 bytes) then straddles three cache
+    lines instead of two, and the per-link writes of the kernels touch each boundary line twice.
+    """
+    n = int(np.prod(shape, dtype=np.int64))
+    raw = np.empty(n + align // 8)
+    start = (-raw.ctypes.data % align) // 8
+    return raw[start:start + n].reshape(shape)
 
 
 # --- compiled kernel ------------------------------------------------------------------------
@@ -412,7 +426,7 @@ class Kernel:
             return out
         n_out = self.L if link_idx is None else len(link_idx)
         if out is None:
-            out = np.empty((N, n_out, 4, 4))
+            out = aligned_empty((N, n_out, 4, 4))
         if N == 0:
             return out
         flat = out.reshape(N, 16 * n_out)
@@ -437,7 +451,7 @@ class Kernel:
         th = self.joint_values(Qc)
         S, Cs = sincos(th)
         C = Qc.shape[0]
-        F = np.empty((self.n_depth, 13, C))
+        F = aligned_empty((self.n_depth, 13, C))
         F[:, 12] = 1.0
         return _Work(th=th, S=S, C=Cs, F=F, t0=np.empty((3, C)), t1=np.empty((3, C)))
 

@@ -194,6 +194,16 @@ def test_fk_out_buffer(catalogue):
         poe.fk(Q[:, :5])
 
 
+def test_results_are_cache_line_aligned(catalogue):
+    model = catalogue.get("ur5")
+    poe = compile_model(model)
+    for n in (SMALL_BATCH + 1, 100):
+        T = poe.fk(model.sample_configurations(n, np.random.default_rng(n)))
+        assert T.ctypes.data % kernels.CACHE_LINE == 0 and T.flags.c_contiguous and T.dtype == np.float64
+    A = kernels.aligned_empty((3, 5, 7))
+    assert A.shape == (3, 5, 7) and A.ctypes.data % kernels.CACHE_LINE == 0 and A.flags.c_contiguous
+
+
 def test_sincos_matches_numpy():
     rng = np.random.default_rng(0)
     th = np.concatenate([rng.uniform(-7, 7, 5000), rng.uniform(-1e6, 1e6, 5000),
