@@ -507,8 +507,8 @@ class Kernel:
         m = self._chain
         if m:  # a chain prefix: the ancestors are slices (no gathers); then its leaf joints
             span = 1
-            while span < m:  # (in and out overlap: numpy buffers the inputs)
-                np.matmul(F[:, :m - span], F[:, span:m], out=F[:, span:m])
+            while span < m:  # the product reads the old frames before they are overwritten
+                F[:, span:m] = np.matmul(F[:, :m - span], F[:, span:m])
                 span *= 2
             if len(self._chain_leaves):
                 F[:, self._chain_leaves] = np.matmul(F[:, self._chain_leaf_parents], F[:, self._chain_leaves])
