@@ -74,13 +74,13 @@ AXIS_ALIGNED_EPS = 1e-16
 REVOLUTE, PRISMATIC = 0, 1  # same codes as kinematics.poe
 
 # --- polynomial sine and cosine -------------------------------------------------------------
-# fdlibm (__kernel_sin, __kernel_cos, __ieee754_rem_pio2 medium case): on |r| <= π/4 the
-# polynomials are accurate to < 2^-58; π/2 is split in three 33-bit parts so that k·part
-# is exact for |k| < 2^20.
+# fdlibm (__kernel_sin, __kernel_cos, __ieee754_rem_pio2): on |r| <= π/4 the polynomials are
+# accurate to < 2^-58. π/2 = _PIO2_1 + _PIO2_1T with a 33-bit first part, so k·_PIO2_1 is exact
+# and th - k·_PIO2_1 too for |k| < 2^20; the absolute error of r stays ~1e-20 (we need absolute,
+# not relative, accuracy near multiples of π/2, so fdlibm's third part is not needed).
 _TWO_OVER_PI = 6.36619772367581382433e-01
-_PIO2_1 = 1.57079632673412561417e00
-_PIO2_2 = 6.07710050630396597660e-11
-_PIO2_3 = 2.02226624871116645580e-21
+_PIO2_1 = 1.57079632673412561417e00  # first 33 bits of π/2
+_PIO2_1T = 6.07710050650619224932e-11  # π/2 - _PIO2_1
 _SIN_COEFFS = (
     1.58969099521155010221e-10, -2.50507602534068634195e-08, 2.75573137070700676789e-06,
     -1.98412698298579493134e-04, 8.33333333332248946124e-03, -1.66666666666666324348e-01,
@@ -91,16 +91,15 @@ _COS_COEFFS = (
 )
 
 
-def _sincos_block(th, s, c, k, r, z, a, b) -> None:
-    """sin and cos of a contiguous 1-D block ``th`` into ``s``, ``c``; ``k..b`` are scratch."""
+def _sincos_block(th, s, c, k, r, z, a, b, m) -> None:
+    """sin and cos of a contiguous 1-D block ``th`` into ``s``, ``c``; ``k..b`` (float) and ``m``
+    (int64) are scratch of the same length."""
     np.multiply(th, _TWO_OVER_PI, out=k)
     np.rint(k, out=k)  # quadrant index (float)
     np.multiply(k, _PIO2_1, out=a)
     np.subtract(th, a, out=r)
-    np.multiply(k, _PIO2_2, out=a)
-    r -= a
-    np.multiply(k, _PIO2_3, out=a)
-    r -= a  # r = th - k·π/2 in [-π/4, π/4]
+    np.multiply(k, _PIO2_1T, out=a)
+    r -= a  # r = th - k·π/2 in [-π/4, π/4], to ~1e-20 for |th| <= SINCOS_MAX_ARG
     np.multiply(r, r, out=z)
     np.multiply(z, _SIN_COEFFS[0], out=s)
     for coeff in _SIN_COEFFS[1:]:
@@ -117,14 +116,12 @@ def _sincos_block(th, s, c, k, r, z, a, b) -> None:
     c -= a
     c += 1.0  # cos r
     # rotate by k·π/2: with m = k mod 4, A = cos(mπ/2) = |m-2|-1, B = sin(mπ/2) = 1-|m-1|
-    np.multiply(k, 0.25, out=a)
-    np.floor(a, out=a)
-    a *= -4.0
-    k += a  # m
-    np.subtract(k, 2.0, out=a)
+    np.copyto(m, k, casting="unsafe")
+    m &= 3
+    np.subtract(m, 2.0, out=a)
     np.abs(a, out=a)
     a -= 1.0  # A
-    k -= 1.0
+    np.subtract(m, 1.0, out=k)
     np.abs(k, out=k)
     np.subtract(1.0, k, out=k)  # B
     np.multiply(s, k, out=b)  # B sin r
@@ -159,10 +156,11 @@ def sincos(theta: np.ndarray, s: np.ndarray | None = None, c: np.ndarray | None 
         return s, c
     blk = min(SINCOS_BLOCK, m)
     scratch = np.empty((5, blk))
+    quadrant = np.empty(blk, dtype=np.int64)
     for i in range(0, m, blk):
         j = min(m, i + blk)
         w = j - i
-        _sincos_block(flat[i:j], sf[i:j], cf[i:j], *(x[:w] for x in scratch))
+        _sincos_block(flat[i:j], sf[i:j], cf[i:j], *(x[:w] for x in scratch), quadrant[:w])
     return s, c
 
 
@@ -238,8 +236,7 @@ class _Work:
     S: np.ndarray  # (n, C) sin θ
     C: np.ndarray  # (n, C) cos θ
     F: np.ndarray  # (depth, 13, C) axis frames along the current DFS path
-    t0: np.ndarray  # (3, C) scratch
-    t1: np.ndarray
+    t: np.ndarray  # (2, 3, C) scratch
 
 
 class Kernel:
@@ -453,30 +450,33 @@ class Kernel:
         C = Qc.shape[0]
         F = aligned_empty((self.n_depth, 13, C))
         F[:, 12] = 1.0
-        return _Work(th=th, S=S, C=Cs, F=F, t0=np.empty((3, C)), t1=np.empty((3, C)))
+        return _Work(th=th, S=S, C=Cs, F=F, t=np.empty((2, 3, C)))
 
     def _advance(self, w: "_Work", j: int) -> np.ndarray:
         """Axis frame of joint ``j`` (13, C) into its depth buffer (its parent's is in the one above)."""
         d = self.depth[j]
-        Fj = w.F[d]
+        self._joint_step(w.F[d - 1] if d else None, w.F[d], j, w.S[j], w.C[j], w.th[j], w.t)
+        return w.F[d]
+
+    def _joint_step(self, Fp, Fj, j: int, s, c, th, t) -> None:
+        """``F_j = F_parent · CZ_j · Z(θ_j)`` for a chunk: frame vectors (13, C); ``Fp`` None at the root.
+
+        ``s``, ``c``, ``th``: (C,) sin θ, cos θ, θ; ``t``: (2, 3, C) scratch.
+        """
         C = Fj.shape[1]
-        if d == 0:
+        if Fp is None:
             Fj[:12] = self.root_frame[j][:, None]
         else:
-            np.matmul(self.K[j], w.F[d - 1, :12].reshape(4, 3 * C), out=Fj[:12].reshape(4, 3 * C))
+            np.matmul(self.K[j], Fp[:12].reshape(4, 3 * C), out=Fj[:12].reshape(4, 3 * C))
         if self.kind[j] == REVOLUTE:
-            s, c = w.S[j], w.C[j]
-            x, y, t0, t1 = Fj[0:3], Fj[3:6], w.t0, w.t1
-            np.multiply(x, s, out=t0)
-            np.multiply(y, s, out=t1)
-            x *= c
-            y *= c
-            x += t1  # x' = c·x + s·y
-            y -= t0  # y' = c·y - s·x
+            xy = Fj[0:6].reshape(2, 3, C)  # the first two rotation columns
+            np.multiply(xy[::-1], s, out=t)  # (s·y, s·x)
+            xy *= c
+            xy[0] += t[0]  # x' = c·x + s·y
+            xy[1] -= t[1]  # y' = c·y - s·x
         else:
-            np.multiply(Fj[6:9], w.th[j], out=w.t0)
-            Fj[9:12] += w.t0
-        return Fj
+            np.multiply(Fj[6:9], th, out=t[0])
+            Fj[9:12] += t[0]  # t' = t + θ·z
 
     # ------------------------------------------------------------------ small batches
     def _frames_small(self, Q: np.ndarray) -> np.ndarray:
@@ -574,24 +574,11 @@ class Kernel:
         C = Qc.shape[0]
         th = Qc[:, self.q_index[path]].T * self.multiplier[path][:, None] + self.offset[path][:, None]
         S, Cs = sincos(th)
-        F = np.empty((k, 13, C))
+        F = aligned_empty((k, 13, C))
         F[:, 12] = 1.0
-        work = _Work(th=th, S=S, C=Cs, F=F, t0=np.empty((3, C)), t1=np.empty((3, C)))
+        t = np.empty((2, 3, C))
         for i, j in enumerate(path):  # a path is a chain: joint i sits at depth i in F
-            if i == 0:
-                F[0, :12] = self.root_frame[j][:, None]
-            else:
-                np.matmul(self.K[j], F[i - 1, :12].reshape(4, 3 * C), out=F[i, :12].reshape(4, 3 * C))
-            if rev[i]:
-                x, y = F[i, 0:3], F[i, 3:6]
-                np.multiply(x, S[i], out=work.t0)
-                np.multiply(y, S[i], out=work.t1)
-                x *= Cs[i]
-                y *= Cs[i]
-                x += work.t1
-                y -= work.t0
-            else:
-                F[i, 9:12] += F[i, 6:9] * th[i]
+            self._joint_step(F[i - 1] if i else None, F[i], j, S[i], Cs[i], th[i], t)
         W = np.moveaxis(F[:, 6:9], 1, 0)  # (3, k, C) joint axes, world
         P = np.moveaxis(F[:, 9:12], 1, 0)  # (3, k, C) points on the axes, world
         Js = np.empty((6, k, C))
