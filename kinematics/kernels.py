@@ -32,7 +32,8 @@ A batch of frames is one ``(13, C)`` float64 buffer per tree depth: rows ``3c + 
 and row 12 holds ones; ``C`` configurations (a chunk) run along the fast axis. Then
 
 - the constant right-product ``F · K`` is one matrix product ``K^T (4, 4) @ F (4, 3C)``;
-- the mixing by ``Z(θ)`` is six in-place element-wise operations on ``(3, C)`` rows;
+- the mixing by ``Z(θ)`` is four in-place element-wise calls on the ``(2, 3, C)`` rows of
+  the first two columns;
 - a link's pose is one ``(C, 13) @ (13, 16)`` product written straight into the output
   ``(N, L, 4, 4)`` (the transposition to configuration-major order happens inside BLAS,
   the ones row supplies the homogeneous ``[0, 0, 0, 1]``);
@@ -41,8 +42,19 @@ and row 12 holds ones; ``C`` configurations (a chunk) run along the fast axis. T
   an ulp of them; arguments beyond ``SINCOS_MAX_ARG`` fall back to numpy.
 
 Joints are visited depth first, so the frames of a joint's ancestors sit in the buffers of
-the smaller depths; memory is ``O(depth · chunk)`` whatever N. A single configuration
-takes a separate small path with few numpy calls (``fk_single``).
+the smaller depths; memory is ``O(depth · chunk)`` whatever N. Results start on a
+cache-line boundary. Batches of at most ``SMALL_BATCH`` configurations (a single one
+above all) take a path with few numpy calls: all factors ``CZ_j Z(θ_j)`` in one product,
+then the prefix products by pointer jumping (``_frames_small``).
+
+Example (the reference and the kernels agree)::
+
+    >>> from kinematics import default_catalogue, compile_model
+    >>> model = default_catalogue().get("ur5")
+    >>> poe = compile_model(model)
+    >>> Q = model.sample_configurations(5000, np.random.default_rng(0))
+    >>> bool(np.abs(poe.fk(Q) - poe.fk_reference(Q)).max() < 1e-12)
+    True
 """
 
 from __future__ import annotations
