@@ -145,11 +145,13 @@ def _sincos_block(th, s, c, k, r, z, a, b, m) -> None:
     s += z  # sin th = A sin r + B cos r
 
 
-def sincos(theta: np.ndarray, s: np.ndarray | None = None, c: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def sincos(theta: np.ndarray, s: np.ndarray | None = None, c: np.ndarray | None = None,
+           scratch: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(sin θ, cos θ)`` of a float64 array, elementwise, within an ulp of ``np.sin``/``np.cos``.
 
-    ``s`` and ``c`` (same shape, contiguous) may be given to write into. Arguments with
-    ``|θ| > SINCOS_MAX_ARG`` or non-finite values make the whole call use numpy's functions.
+    ``s`` and ``c`` (same shape, contiguous) may be given to write into, and ``scratch`` (from
+    :func:`sincos_scratch`) to reuse across calls. Arguments with ``|θ| > SINCOS_MAX_ARG`` or
+    non-finite values make the whole call use numpy's functions.
 
     >>> s, c = sincos(np.array([0.0, np.pi / 6, 100.0]))
     >>> bool(np.allclose(s, [0.0, 0.5, np.sin(100.0)], atol=1e-15, rtol=0))
@@ -167,14 +169,21 @@ def sincos(theta: np.ndarray, s: np.ndarray | None = None, c: np.ndarray | None 
         np.sin(flat, out=sf)
         np.cos(flat, out=cf)
         return s, c
-    blk = min(SINCOS_BLOCK, m)
-    scratch = np.empty((5, blk))
-    quadrant = np.empty(blk, dtype=np.int64)
+    if scratch is None or scratch[1].size < min(SINCOS_BLOCK, m):
+        scratch = sincos_scratch(m)
+    work, quadrant = scratch
+    blk = min(quadrant.size, m)
     for i in range(0, m, blk):
         j = min(m, i + blk)
         w = j - i
-        _sincos_block(flat[i:j], sf[i:j], cf[i:j], *(x[:w] for x in scratch), quadrant[:w])
+        _sincos_block(flat[i:j], sf[i:j], cf[i:j], *(x[:w] for x in work), quadrant[:w])
     return s, c
+
+
+def sincos_scratch(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scratch for :func:`sincos` of up to ``size`` elements per block (at most ``SINCOS_BLOCK``)."""
+    blk = max(1, min(SINCOS_BLOCK, size))
+    return np.empty((5, blk)), np.empty(blk, dtype=np.int64)
 
 
 def aligned_empty(shape: tuple[int, ...], align: int = CACHE_LINE) -> np.ndarray:
@@ -250,6 +259,7 @@ class _Work:
     C: np.ndarray  # (n, C) cos θ
     F: np.ndarray  # (depth, 13, C) axis frames along the current DFS path
     t: np.ndarray  # (2, 3, C) scratch
+    sc: tuple[np.ndarray, np.ndarray] | None = None  # sincos scratch
 
 
 class Kernel:
@@ -414,15 +424,6 @@ class Kernel:
             self._plans[key] = plan
         return plan
 
-    def joint_values(self, Q: np.ndarray) -> np.ndarray:
-        """θ (n, N): joint values of every moving joint, joint-major, from q (N, dof)."""
-        if self.plain_q:
-            return np.ascontiguousarray(Q.T)
-        th = np.ascontiguousarray(Q[:, self.q_index].T)
-        th *= self.multiplier[:, None]
-        th += self.offset[:, None]
-        return th
-
     # ------------------------------------------------------------------ FK, batches
     def fk(self, Q: np.ndarray, link_idx: np.ndarray | None = None, out: np.ndarray | None = None,
            chunk: int = CHUNK_SIZE) -> np.ndarray:
@@ -441,6 +442,7 @@ class Kernel:
         if N == 0:
             return out
         flat = out.reshape(N, 16 * n_out)
+        work = None
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
             dst = flat[a:b]
@@ -448,7 +450,7 @@ class Kernel:
                 dst[:, 16 * start:16 * (start + count)] = poses
             if not plan.order:
                 continue
-            work = self._chunk_setup(Q[a:b])
+            work = self._chunk_setup(Q[a:b], work)
             for j, runs in zip(plan.order, plan.outputs):
                 Fj = self._advance(work, j)
                 if runs:
@@ -457,14 +459,29 @@ class Kernel:
                         np.matmul(FjT, Dm, out=dst[:, 16 * start:16 * (start + count)])
         return out
 
-    def _chunk_setup(self, Qc: np.ndarray) -> "_Work":
-        """Per-chunk workspace: joint values, their sines and cosines, frame buffers."""
-        th = self.joint_values(Qc)
-        S, Cs = sincos(th)
-        C = Qc.shape[0]
+    def _work(self, C: int) -> "_Work":
+        """Workspace for chunks of ``C`` configurations (reused chunk after chunk)."""
+        n = self.n
         F = aligned_empty((self.n_depth, 13, C))
         F[:, 12] = 1.0
-        return _Work(th=th, S=S, C=Cs, F=F, t=np.empty((2, 3, C)))
+        return _Work(th=np.empty((n, C)), S=np.empty((n, C)), C=np.empty((n, C)), F=F,
+                     t=np.empty((2, 3, C)), sc=sincos_scratch(n * C))
+
+    def _chunk_setup(self, Qc: np.ndarray, work: "_Work | None" = None) -> "_Work":
+        """Joint values of a chunk, their sines and cosines, in ``work`` (a new one if None)."""
+        C = Qc.shape[0]
+        if work is None or work.F.shape[2] != C:
+            work = self._work(C)
+        th = work.th
+        if self.plain_q:
+            np.copyto(th, Qc.T)
+        else:
+            np.take(Qc.T, self.q_index, axis=0, out=th)
+            th *= self.multiplier[:, None]
+            if self._has_offset:
+                th += self.offset[:, None]
+        sincos(th, work.S, work.C, work.sc)
+        return work
 
     def _advance(self, w: "_Work", j: int) -> np.ndarray:
         """Axis frame of joint ``j`` (13, C) into its depth buffer (its parent's is in the one above)."""
