@@ -38,8 +38,8 @@ and row 12 holds ones; ``C`` configurations (a chunk) run along the fast axis. T
   ``(N, L, 4, 4)`` (the transposition to configuration-major order happens inside BLAS,
   the ones row supplies the homogeneous ``[0, 0, 0, 1]``);
 - sine and cosine come from a vectorised polynomial (fdlibm's kernels, Cody-Waite
-  reduction by π/2), about three times faster than ``np.sin`` plus ``np.cos``, and within
-  an ulp of them; arguments beyond ``SINCOS_MAX_ARG`` fall back to numpy.
+  reduction by π/2), about twice as fast as ``np.sin`` plus ``np.cos`` here, and within an
+  ulp of them; arguments beyond ``SINCOS_MAX_ARG`` fall back to numpy.
 
 Joints are visited depth first, so the frames of a joint's ancestors sit in the buffers of
 the smaller depths; memory is ``O(depth · chunk)`` whatever N. Results start on a
