@@ -59,6 +59,8 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from .errors import DHError
+from .joints import MAX_ABS_JOINT_VALUE
+from .urdf import MAX_ABS_COORDINATE
 from .model import _frozen
 from .transforms import rpy_to_matrix
 
@@ -124,10 +126,14 @@ class DHRow:
         for key in ("a", "alpha", "d", "theta"):
             if not math.isfinite(getattr(self, key)):
                 raise DHError(f"{where}.{key}: {getattr(self, key)!r} is not finite")
+            if abs(getattr(self, key)) > MAX_ABS_COORDINATE:  # the URDF it becomes would be refused
+                raise DHError(f"{where}.{key}: {getattr(self, key)!r} is beyond +-{MAX_ABS_COORDINATE:g}")
         if self.limits is not None:
             lo, hi = self.limits
             if not (math.isfinite(lo) and math.isfinite(hi)):
                 raise DHError(f"{where}.limits: {self.limits!r} are not finite")
+            if max(abs(lo), abs(hi)) > MAX_ABS_JOINT_VALUE:
+                raise DHError(f"{where}.limits: {self.limits!r} are beyond +-{MAX_ABS_JOINT_VALUE:g}")
             if lo > hi:
                 raise DHError(f"{where}.limits: lower limit {lo} is above upper limit {hi}")
 
@@ -212,6 +218,8 @@ def _number(value: Any, where: str) -> float:
         raise DHError(f"{where}: expected a number, got {type(value).__name__}")
     if not math.isfinite(v):
         raise DHError(f"{where}: {value!r} is not finite")
+    if abs(v) > MAX_ABS_COORDINATE:  # lengths, angles, limits and transform entries alike
+        raise DHError(f"{where}: {value!r} is beyond +-{MAX_ABS_COORDINATE:g}")
     return v
 
 

@@ -44,6 +44,7 @@ from .dh import CONVENTIONS, DHRow, DHTable, dh_tool_pose
 from .errors import DHError, NoDHFormError, UnknownLinkError
 from .model import RobotModel, _frozen
 from .poe import compile_model
+from .urdf import MAX_ABS_COORDINATE
 
 #: |w_k x w_{k+1}| below this: the axes are treated as parallel
 PARALLEL_TOLERANCE = 1e-9
@@ -267,6 +268,11 @@ def _clean(T: np.ndarray) -> np.ndarray:
 
 def _row(joint, a: float, alpha: float, d: float, theta: float) -> DHRow:
     jtype = "prismatic" if joint.type == "prismatic" else "revolute"
+    if max(abs(a), abs(d)) > MAX_ABS_COORDINATE:
+        raise NoDHFormError(
+            f"joint {joint.name!r}: the common normal of nearly parallel joint axes lies "
+            f"{max(abs(a), abs(d)):.3g} m away (beyond {MAX_ABS_COORDINATE:g} m): no usable DH form"
+        )
     limits = None
     if joint.type in ("revolute", "prismatic") and joint.limits is not None:
         limits = (float(joint.limits.lower), float(joint.limits.upper))
