@@ -3,11 +3,6 @@ two workers sharing one data directory (DESIGN.md, "State")."""
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
-import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -15,55 +10,21 @@ import httpx
 import pytest
 
 from app.schemas import TWO_LINK_URDF
+from tests.live import LiveServer
 
 pytestmark = pytest.mark.slow
 
-ROOT = Path(__file__).resolve().parent.parent
-#: how long a server may take to answer /health after it is started (imports numpy, pinocchio)
-STARTUP_TIMEOUT_S = 60.0
 #: requests sent to a multi-worker server so that every worker is very likely hit
 REQUESTS_PER_CHECK = 12
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @contextmanager
 def server(data_dir: Path, workers: int = 1):
-    port = _free_port()
-    env = {**os.environ, "KIN_DATA_DIR": str(data_dir), "KIN_LOG_LEVEL": "warning"}
-    env.pop("KIN_API_KEY", None)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1", "--port", str(port),
-         "--workers", str(workers), "--log-level", "warning"],
-        cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-    )
-    base = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            if proc.poll() is not None:
-                raise RuntimeError(f"server exited: {proc.stderr.read().decode(errors='replace')[-2000:]}")
-            try:
-                if httpx.get(f"{base}/health", timeout=2).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            if time.monotonic() > deadline:
-                raise RuntimeError("server did not start in time")
-            time.sleep(0.2)
-        with httpx.Client(base_url=base, timeout=30) as client:
-            yield client
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    """A client of a real uvicorn (``tests.live.LiveServer``) serving ``data_dir``."""
+    live = LiveServer(data_dir, data_dir.parent / f"uvicorn-{data_dir.name}-{id(data_dir)}.log", workers=workers,
+                      env={"KIN_LOG_LEVEL": "warning"})
+    with live, httpx.Client(base_url=live.url, timeout=30) as client:
+        yield client
 
 
 def test_restart_and_two_servers_share_the_data_dir(tmp_path):

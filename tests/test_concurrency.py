@@ -19,7 +19,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.hardening_live import LiveServer
+from tests.live import LiveServer
 
 pytestmark = pytest.mark.slow
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.hardening_live import LiveServer
+from tests.live import LiveServer
 
 UPLOADERS = 4
 #: acknowledged uploads to wait for before the kill (in-flight ones are what the kill hits)

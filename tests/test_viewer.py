@@ -14,9 +14,6 @@ import io
 import json
 import os
 import re
-import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -24,13 +21,14 @@ import httpx
 import numpy as np
 import pytest
 
+from tests.live import LiveServer
+
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMEDRIVER = Path("/usr/bin/chromedriver")
 ARTIFACTS = Path(__file__).parent / "artifacts"
 REPO = Path(__file__).resolve().parent.parent
 
-#: seconds to wait for the server to answer /health, and for the page to reach a state
-SERVER_START_TIMEOUT = 60.0
+#: seconds to wait for the page to reach a state
 PAGE_TIMEOUT = 60.0
 #: a rendered model: grey-level standard deviation of the canvas well above a flat colour
 MIN_CANVAS_STD = 4.0
@@ -62,48 +60,12 @@ def _skip_reason() -> str | None:
 needs_browser = pytest.mark.skipif(_skip_reason() is not None, reason=_skip_reason() or "")
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     """Base URL of a uvicorn serving ``app.main:app`` with an empty temporary data directory."""
     tmp = tmp_path_factory.mktemp("viewer")
-    port = _free_port()
-    log_path = tmp / "uvicorn.log"
-    env = dict(os.environ, KIN_DATA_DIR=str(tmp / "data"))
-    env.pop("KIN_API_KEY", None)
-    with open(log_path, "wb") as log:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1", "--port", str(port),
-             "--log-level", "info"],
-            cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT,
-        )
-    base = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + SERVER_START_TIMEOUT
-        while True:
-            if proc.poll() is not None:
-                pytest.fail(f"uvicorn exited with {proc.returncode}:\n{log_path.read_text()}")
-            try:
-                if httpx.get(f"{base}/health", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if time.monotonic() > deadline:
-                pytest.fail(f"uvicorn did not answer within {SERVER_START_TIMEOUT} s:\n{log_path.read_text()}")
-            time.sleep(0.2)
-        yield base
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    with LiveServer(tmp / "data", tmp / "uvicorn.log") as live:
+        yield live.url
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
-"""A real ``uvicorn app.main:app`` process on a loopback port, for the hardening tests.
+"""A real ``uvicorn app.main:app`` process on a loopback port, for the tests that need one.
 
-Used by ``test_concurrency.py`` and ``test_persistence_faults.py``. The server runs in its
+Used by the concurrency, persistence, server and viewer tests. The server runs in its
 own session (process group), so :meth:`LiveServer.kill` reaches every worker process it
 started, and only those.
 """
