@@ -48,11 +48,33 @@ class ProblemResponse(FastJSONResponse):
 
 
 class NpyResponse(Response):
-    """A NumPy ``.npy`` array (float64, C order); never pickled."""
+    """A NumPy ``.npy`` array (float64, C order); never pickled.
+
+    Sent without copying the array: the ``.npy`` header (format 1.0, padded to 64 bytes by
+    :mod:`numpy.lib.format`) goes out as a first body message and the array's own buffer
+    (a ``memoryview``) as the second. ``body`` holds the header only; ``content_length``
+    is the size of the whole file.
+    """
 
     media_type = NPY_MEDIA_TYPE
 
     def __init__(self, array: np.ndarray, headers: dict[str, str] | None = None, status_code: int = 200):
-        buf = io.BytesIO()
-        np.save(buf, np.ascontiguousarray(array, dtype=np.float64), allow_pickle=False)
-        super().__init__(content=buf.getvalue(), status_code=status_code, headers=headers, media_type=self.media_type)
+        self.array = np.ascontiguousarray(array, dtype=np.float64)
+        self.body = npy_header(self.array)
+        self.content_length = len(self.body) + self.array.nbytes
+        self.status_code = status_code
+        self.background = None
+        self.init_headers({**(headers or {}), "content-length": str(self.content_length)})
+
+    async def __call__(self, scope, receive, send) -> None:
+        await send({"type": "http.response.start", "status": self.status_code, "headers": self.raw_headers})
+        await send({"type": "http.response.body", "body": self.body, "more_body": True})
+        await send({"type": "http.response.body", "body": memoryview(self.array).cast("B")})
+
+
+def npy_header(array: np.ndarray) -> bytes:
+    """The ``.npy`` (format 1.0) header of a C-contiguous ``array``: ``header + array.tobytes()`` is
+    exactly what ``np.save(f, array)`` writes."""
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, np.lib.format.header_data_from_array_1_0(array))
+    return buf.getvalue()

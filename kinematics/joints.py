@@ -96,22 +96,36 @@ def as_batch(model: RobotModel, q) -> tuple[np.ndarray, bool]:
     return Q, batch
 
 
+def limit_violations(model: RobotModel, Q: np.ndarray) -> np.ndarray:
+    """``(N, dof)`` boolean mask: True where ``Q[n, j]`` lies outside joint j's limits (Q in q order)."""
+    Q = np.asarray(Q, dtype=float)
+    return (Q < model.lower_limits - LIMIT_TOLERANCE) | (Q > model.upper_limits + LIMIT_TOLERANCE)
+
+
 def out_of_limits(model: RobotModel, Q: np.ndarray) -> list[list[str]]:
-    """Per configuration, the names of the joints whose value lies outside its limits."""
-    lo = model.lower_limits - LIMIT_TOLERANCE
-    hi = model.upper_limits + LIMIT_TOLERANCE
-    bad = (Q < lo) | (Q > hi)
+    """Per configuration, the names of the joints whose value lies outside its limits.
+
+    Vectorised: names are only looked up for the configurations that have a violation
+    (a batch within its limits costs one comparison and N empty lists).
+    """
+    bad = limit_violations(model, Q)
+    result: list[list[str]] = [[] for _ in range(bad.shape[0])]
     names = model.joint_names
-    return [[names[j] for j in np.flatnonzero(row)] for row in bad]
+    for n in np.flatnonzero(bad.any(axis=1)).tolist():
+        result[n] = [names[j] for j in np.flatnonzero(bad[n]).tolist()]
+    return result
 
 
 def require_within_limits(model: RobotModel, Q: np.ndarray) -> None:
     """Raise :class:`LimitError` naming the first configuration and joint outside its limits."""
-    for n, row in enumerate(out_of_limits(model, Q)):
-        if row:
-            j = model.q_index[row[0]]
-            raise LimitError(
-                f"configuration {n}: joint {row[0]!r} value {Q[n, j]} is outside its limits "
-                f"[{model.lower_limits[j]}, {model.upper_limits[j]}]"
-                + (f" (and {len(row) - 1} more)" if len(row) > 1 else "")
-            )
+    bad = limit_violations(model, Q)
+    rows = np.flatnonzero(bad.any(axis=1))
+    if rows.size:
+        n = int(rows[0])
+        cols = np.flatnonzero(bad[n])
+        j = int(cols[0])
+        raise LimitError(
+            f"configuration {n}: joint {model.joint_names[j]!r} value {Q[n, j]} is outside its limits "
+            f"[{model.lower_limits[j]}, {model.upper_limits[j]}]"
+            + (f" (and {len(cols) - 1} more)" if len(cols) > 1 else "")
+        )

@@ -17,6 +17,7 @@ from fastapi import APIRouter, Depends, Query, Request
 
 from kinematics import as_batch, compile_model, conditioning, out_of_limits, require_within_limits
 from kinematics.errors import JointValueError
+from kinematics.joints import limit_violations
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
@@ -28,9 +29,6 @@ from ..settings import Settings
 from ..views import poses_json
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
-
-#: configurations per library call: bounds the scratch memory of one call on large batches
-CHUNK_CONFIGURATIONS = 16_384
 
 _ERRORS = {
     400: {"model": Problem, "description": "malformed body"},
@@ -135,10 +133,14 @@ def _batch(model, q: Any, settings: Settings) -> tuple[np.ndarray, bool]:
     return Q, is_batch
 
 
-def _limits(model, Q: np.ndarray, policy: str) -> list[list[str]]:
+def _limits(model, Q: np.ndarray, policy: str) -> None:
     if policy == "refuse":
         require_within_limits(model, Q)
-    return out_of_limits(model, Q)
+
+
+def _out_of_limits_count(model, Q: np.ndarray) -> str:
+    """``X-Out-Of-Limits`` of a ``.npy`` answer: how many configurations have a joint outside its limits."""
+    return str(int(np.count_nonzero(limit_violations(model, Q).any(axis=1))))
 
 
 def _check_verify(call: Call, N: int, settings: Settings) -> None:
@@ -152,13 +154,6 @@ def _check_result_size(values: int, settings: Settings, what: str) -> None:
         raise ProblemError(413, f"the answer would hold {values} numbers ({what}); the limit is "
                            f"{settings.max_result_values}: send fewer configurations or links",
                            slug="result-too-large", field="q", limit=settings.max_result_values)
-
-
-def _chunked(fn, Q: np.ndarray) -> np.ndarray:
-    if Q.shape[0] <= CHUNK_CONFIGURATIONS:
-        return fn(Q)
-    parts = [fn(Q[i:i + CHUNK_CONFIGURATIONS]) for i in range(0, Q.shape[0], CHUNK_CONFIGURATIONS)]
-    return np.concatenate(parts, axis=0)
 
 
 def _names_headers(links: list[str], joint_names) -> dict[str, str]:
@@ -191,12 +186,12 @@ def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_
     model = rec.model
     poe = compile_model(model)
     Q, is_batch = _batch(model, call.q, settings)
-    oob = _limits(model, Q, call.limits)
+    _limits(model, Q, call.limits)
     links = list(model.leaf_links) if call.links is None else list(model.links) if call.links == "all" else list(call.links)
     poe.link_indices(links)  # unknown links: 404 before any work
     _check_verify(call, Q.shape[0], settings)
     _check_result_size(Q.shape[0] * len(links) * 16, settings, f"{Q.shape[0]} configurations x {len(links)} links x 16")
-    T = _chunked(lambda Qc: poe.fk(Qc, links), Q)
+    T = poe.fk(Q, links)  # the kernels work in bounded chunks
     verification = None
     if call.verify:
         from kinematics.crosscheck import compare_fk
@@ -206,12 +201,13 @@ def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_
                         "max_rotation_error": dev.max_rotation_error}
     if wants_npy(request):
         headers = _names_headers(links, model.joint_names)
-        headers["X-Out-Of-Limits"] = str(sum(1 for row in oob if row))
+        headers["X-Out-Of-Limits"] = _out_of_limits_count(model, Q)
         if verification:
             headers.update({"X-Verification-Reference": verification["reference"],
                             "X-Max-Position-Error": repr(verification["max_position_error"]),
                             "X-Max-Rotation-Error": repr(verification["max_rotation_error"])})
         return NpyResponse(T, headers=headers)
+    oob = out_of_limits(model, Q)
     return FastJSONResponse({
         "model": rec.id, "joint_names": list(model.joint_names), "links": links, "format": call.format,
         "poses": poses_json(T, links, call.format, is_batch),
@@ -235,14 +231,14 @@ def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobian_call
     model = rec.model
     poe = compile_model(model)
     Q, is_batch = _batch(model, call.q, settings)
-    oob = _limits(model, Q, call.limits)
+    _limits(model, Q, call.limits)
     link = call.link
     if link is None:
         link = model.leaf_links[0]
     poe.link_indices([link])
     _check_verify(call, Q.shape[0], settings)
     _check_result_size(Q.shape[0] * 6 * model.dof, settings, f"{Q.shape[0]} configurations x 6 x {model.dof}")
-    J = _chunked(lambda Qc: poe.jacobian(Qc, link, call.reference), Q)
+    J = poe.jacobian(Q, link, call.reference)  # the kernels work in bounded chunks
     verification = None
     if call.verify:
         from kinematics.crosscheck import REFERENCE_NAME, compare_jacobian
@@ -252,11 +248,12 @@ def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobian_call
     if wants_npy(request):
         headers = _names_headers([link], model.joint_names)
         headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": call.reference,
-                        "X-Out-Of-Limits": str(sum(1 for row in oob if row))})
+                        "X-Out-Of-Limits": _out_of_limits_count(model, Q)})
         if verification:
             headers.update({"X-Verification-Reference": verification["reference"],
                             "X-Max-Jacobian-Error": repr(verification["max_jacobian_error"])})
         return NpyResponse(J, headers=headers)
+    oob = out_of_limits(model, Q)
     measures = conditioning(J)
     cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
     if is_batch:
