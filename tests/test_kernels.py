@@ -55,7 +55,7 @@ def test_kernels_equal_reference_on_catalogue(catalogue, model_id):
     model = _load(catalogue, model_id)
     poe = compile_model(model)
     rng = np.random.default_rng(zlib.crc32(model_id.encode()))
-    for n in (BATCH_N, SMALL_N):
+    for n in (BATCH_N, SMALL_N, 1):  # 1: the single-configuration path of short trees
         Q = model.sample_configurations(n, rng)  # continuous joints drawn in +-2 pi
         _assert_close(poe.fk(Q), poe.fk_reference(Q), f"{model_id} FK N={n}")
         for leaf in model.leaf_links:
@@ -103,6 +103,31 @@ def test_n_zero_and_one(catalogue):
     assert T.shape == (1, L, 4, 4)
     _assert_close(T, poe.fk_reference(q), "N=1")
     np.testing.assert_array_equal(T[0, :, 3, :], np.tile([0.0, 0.0, 0.0, 1.0], (L, 1)))
+
+
+def test_single_configuration_results_are_fresh_and_thread_safe(catalogue):
+    """The N = 1 path works in per-thread scratch: a result is never overwritten by a later call,
+    and concurrent threads each get their own configuration's poses."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    model = catalogue.get("panda")  # sequential N = 1 path, with a mimic finger and a prismatic joint
+    poe = compile_model(model)
+    assert poe.kernel._one_sequential
+    Q = model.sample_configurations(64, np.random.default_rng(11))
+    ref = poe.fk_reference(Q)
+    first = poe.fk(Q[:1])
+    poe.fk(Q[1:2])
+    _assert_close(first, ref[:1], "a result after a later call")
+
+    def run(i):
+        return [poe.fk(Q[i:i + 1], ["panda_hand_tcp", "panda_rightfinger"]) for _ in range(50)]
+
+    with ThreadPoolExecutor(4) as pool:
+        outs = list(pool.map(run, range(Q.shape[0])))
+    idx = poe.link_indices(["panda_hand_tcp", "panda_rightfinger"])
+    for i, results in enumerate(outs):
+        for T in results:
+            _assert_close(T, ref[i:i + 1, idx], f"thread result {i}")
 
 
 def test_planar_2r_closed_form():
