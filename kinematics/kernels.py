@@ -590,6 +590,11 @@ class Kernel:
         if self._has_prismatic:
             w[:, :n, 0, 3] = th
         F = np.matmul(w, self._basis).reshape(N, n + 1, 4, 4)  # CZ_j Z(θ_j); F[:, n] = I
+        if self._one_sequential:  # as _frames_one, product for product: N = 1 equals a row of a batch, bit for bit
+            P = F.copy()
+            for j, p in self._one_steps:
+                np.matmul(P[:, p], F[:, j], out=P[:, j])
+            return P
         m = self._chain
         if m:  # a chain prefix: the ancestors are slices (no gathers); then its leaf joints
             span = 1

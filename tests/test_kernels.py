@@ -90,6 +90,13 @@ def test_small_and_batched_paths_agree(catalogue):
     small = np.concatenate([poe.fk(Q[i:i + 1]) for i in range(Q.shape[0])])
     _assert_close(small, batched, "small vs batched")
     _assert_close(batched, poe.fk_reference(Q), "batched vs reference")
+    # one configuration equals its row of a small batch bit for bit (the API's single and batch answers)
+    for model_id in ("ur5", "panda"):
+        poe = compile_model(catalogue.get(model_id))
+        Qs = catalogue.get(model_id).sample_configurations(SMALL_BATCH, np.random.default_rng(4))
+        few = poe.fk(Qs)
+        for i in range(SMALL_BATCH):
+            np.testing.assert_array_equal(poe.fk(Qs[i:i + 1]), few[i:i + 1])
 
 
 def test_n_zero_and_one(catalogue):
