@@ -12,12 +12,15 @@ from .errors import ProblemError
 from .registry import MODEL_ID_PATTERN, Registry
 from .settings import Settings
 
+# The dependencies below are coroutines although they never await: FastAPI runs a plain ``def``
+# dependency in its thread pool, a hop that costs more than the dependency itself.
 
-def get_settings(request: Request) -> Settings:
+
+async def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_registry(request: Request) -> Registry:
+async def get_registry(request: Request) -> Registry:
     return request.app.state.registry
 
 
@@ -42,14 +45,14 @@ def _check_key(settings: Settings, header_key: str | None, bearer: HTTPAuthoriza
         raise ProblemError(403, "the API key is not valid", slug="api-key-invalid")
 
 
-def require_write_key(settings: SettingsDep, key: Annotated[str | None, Depends(_api_key_header)] = None,
-                      bearer: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)] = None) -> None:
+async def require_write_key(settings: SettingsDep, key: Annotated[str | None, Depends(_api_key_header)] = None,
+                            bearer: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)] = None) -> None:
     """Writes (register / delete models) need the key when ``KIN_API_KEY`` is set."""
     _check_key(settings, key, bearer)
 
 
-def require_read_key(settings: SettingsDep, key: Annotated[str | None, Depends(_api_key_header)] = None,
-                     bearer: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)] = None) -> None:
+async def require_read_key(settings: SettingsDep, key: Annotated[str | None, Depends(_api_key_header)] = None,
+                           bearer: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)] = None) -> None:
     """Reads need the key too when ``KIN_API_KEY_FOR_READS`` is true."""
     if settings.api_key_for_reads:
         _check_key(settings, key, bearer)
