@@ -155,7 +155,7 @@ def loopback_transfer(nbytes: int, rounds: int = 15) -> float:
     return best
 
 
-def batch_request(report: Report, url: str, robot: str = "ur5", n: int = 10_000, rounds: int = 9) -> dict:
+def batch_request(report: Report, url: str, robot: str = "ur5", n: int = 10_000, rounds: int = 21) -> dict:
     import httpx
 
     model = default_catalogue().get(robot)
