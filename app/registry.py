@@ -47,6 +47,10 @@ from .errors import ProblemError
 
 log = logging.getLogger("app.registry")
 
+
+class _KnownUnreadable(ValueError):
+    """A stored file already found unreadable (and logged) in its current version."""
+
 #: what a model id in a path may look like (no path separators, no "..")
 MODEL_ID_PATTERN = r"^[A-Za-z0-9_.-]{1,128}$"
 _MODEL_ID = re.compile(MODEL_ID_PATTERN)
@@ -152,6 +156,8 @@ class Registry:
         self.max_links = max_links
         self._bundled: dict[str, ModelRecord] = {}
         self._stored: dict[str, ModelRecord] = {}
+        #: stored files found unreadable: id -> (file key, reason); logged once per file version
+        self._unreadable: dict[str, tuple[Any, str]] = {}
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ start-up
@@ -162,6 +168,8 @@ class Registry:
             try:
                 self._load_stored(model_id)
                 count += 1
+            except _KnownUnreadable:
+                pass
             except (OSError, ValueError, KinematicsError) as exc:
                 log.warning("skipping stored model %s: %s", model_id, exc)
         return count
@@ -196,7 +204,8 @@ class Registry:
                 self._stored.pop(model_id, None)
             raise UnknownModelError(f"unknown model {model_id!r}") from None
         except (OSError, ValueError) as exc:
-            log.warning("stored model %s is unreadable: %s", model_id, exc)
+            if not isinstance(exc, _KnownUnreadable):  # logged once per file version
+                log.warning("stored model %s is unreadable: %s", model_id, exc)
             raise UnknownModelError(f"model {model_id!r} is stored but unreadable") from None
 
     def summaries(self) -> list[ModelSummary]:
@@ -307,6 +316,17 @@ class Registry:
         cached = self._stored.get(model_id)
         if cached is not None and cached.file_key == key:
             return cached
+        known_bad = self._unreadable.get(model_id)
+        if known_bad is not None and known_bad[0] == key:  # same bad file: refused again, not re-read
+            raise _KnownUnreadable(known_bad[1])
+        try:
+            return self._read_stored(model_id, path, st, key)
+        except ValueError as exc:
+            with self._lock:
+                self._unreadable[model_id] = (key, str(exc))
+            raise
+
+    def _read_stored(self, model_id: str, path: Path, st: os.stat_result, key) -> ModelRecord:
         data = path.read_bytes()
         meta = self._read_meta(model_id)
         created = meta.get("created") or datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 
 import numpy as np
 import pytest
@@ -195,6 +196,28 @@ def test_restart_reloads_stored_models_and_skips_corrupt(make_client, api_data_d
     ids = {m["id"] for m in b.get("/models").json()}
     assert mid in ids and "u-0123456789abcdef" not in ids and "u-fedcba9876543210" not in ids
     assert not any(p.name.startswith(".tmp-") for p in models_dir.iterdir())  # atomic writes left no temp file
+
+
+def test_corrupt_file_is_logged_once_and_not_reread(make_client, api_data_dir, caplog):
+    """A bad stored file is reported once per version of the file, not on every listing."""
+    client = make_client()
+    bad = api_data_dir / "models" / "u-0123456789abcdef.urdf"
+    bad.write_text("<robot name='x'><link name='a'/></robot>")  # does not hash to its id
+    with caplog.at_level(logging.WARNING, logger="app.registry"):
+        for _ in range(3):
+            assert "u-0123456789abcdef" not in {m["id"] for m in client.get("/models").json()}
+        assert client.get("/models/u-0123456789abcdef").status_code == 404
+    assert _warnings_about(caplog, "u-0123456789abcdef") == 1
+    caplog.clear()
+    bad.write_text("<robot name='y'><link name='b'/></robot>")  # a new version: checked and reported again
+    os.utime(bad, ns=(bad.stat().st_atime_ns, bad.stat().st_mtime_ns + 10**9))
+    with caplog.at_level(logging.WARNING, logger="app.registry"):
+        client.get("/models")
+    assert _warnings_about(caplog, "u-0123456789abcdef") == 1
+
+
+def _warnings_about(caplog, model_id: str) -> int:
+    return sum(r.levelno == logging.WARNING and model_id in r.getMessage() for r in caplog.records)
 
 
 def test_screws(api_client):
