@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pytest
 
@@ -59,6 +61,14 @@ def test_fk_default_links_are_leaf_links_and_names_select(api_client, ur5, ur5_q
     assert list(body["poses"]) == some
     T = compile_model(ur5).fk(np.array([q]), some)[0]
     np.testing.assert_allclose(body["poses"]["forearm_link"]["matrix"], T[0], atol=EXACT)
+    # a link named twice is answered once (JSON and .npy alike)
+    body = api_client.post("/models/ur5/fk", json={"q": q, "links": ["tool0", "forearm_link", "tool0"]}).json()
+    assert body["links"] == ["tool0", "forearm_link"]
+    buf = io.BytesIO()
+    np.save(buf, np.array([q, q]))
+    r = api_client.post("/models/ur5/fk?links=tool0,tool0", content=buf.getvalue(),
+                        headers={"content-type": "application/x-npy", "accept": "application/x-npy"})
+    assert r.status_code == 200 and np.load(io.BytesIO(r.content)).shape == (2, 1, 4, 4)
 
 
 def test_fk_batch_equals_singles_and_name_map_equals_vector(api_client, ur5, ur5_q):

@@ -188,6 +188,7 @@ def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_
     Q, is_batch = _batch(model, call.q, settings)
     _limits(model, Q, call.limits)
     links = list(model.leaf_links) if call.links is None else list(model.links) if call.links == "all" else list(call.links)
+    links = list(dict.fromkeys(links))  # a link named twice is computed and answered once
     poe.link_indices(links)  # unknown links: 404 before any work
     _check_verify(call, Q.shape[0], settings)
     _check_result_size(Q.shape[0] * len(links) * 16, settings, f"{Q.shape[0]} configurations x {len(links)} links x 16")
