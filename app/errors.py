@@ -18,6 +18,7 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from kinematics.errors import (
+    BasePoseError,
     DHError,
     JointValueError,
     KinematicsError,
@@ -46,6 +47,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (NoDHFormError, 422, "no-dh-form", "The model has no Denavit-Hartenberg form"),
     (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
+    (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )

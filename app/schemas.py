@@ -180,6 +180,28 @@ _Q_DESC = ("joint values: a vector in the order of joint_names, a {joint_name: v
 _LIMITS_DESC = "report: compute and list out-of-limit joints in out_of_limits; refuse: answer 422 naming the joint"
 
 
+class BaseXyzRpy(BaseModel):
+    """T_world_root as a translation and URDF roll-pitch-yaw."""
+
+    model_config = ConfigDict(extra="forbid")
+    xyz: Vector = Field(description="metres")
+    rpy: Vector = Field(description="radians, R = Rz(yaw) Ry(pitch) Rx(roll)")
+
+
+class BasePositionQuaternion(BaseModel):
+    """T_world_root as a position and a unit quaternion."""
+
+    model_config = ConfigDict(extra="forbid")
+    position: Vector = Field(description="metres")
+    quaternion: Quaternion
+
+
+BasePose = Union[BaseXyzRpy, BasePositionQuaternion, Matrix]
+_BASE_DESC = ("the root link's pose in the world, T_world_root (default: the world is the root link's frame): "
+              '{"xyz", "rpy"}, {"position", "quaternion"} or a 4x4 matrix; for a batch, one pose or a list with '
+              "one pose per configuration. verify compares the root-frame results with Pinocchio.")
+
+
 class FKRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     q: JointValues = Field(description=_Q_DESC)
@@ -187,6 +209,7 @@ class FKRequest(BaseModel):
         default=None, description='link names; "all" for every link; default: the leaf links')
     verify: bool = Field(default=False, description="also compare with Pinocchio and report the largest deviations")
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+    base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
     format: PoseFormat = Field(
         default="pose",
         description="pose: matrix, position, quaternion, rpy per link; matrix: the 4x4 only; "
@@ -214,6 +237,7 @@ class JacobianRequest(BaseModel):
     reference: References = Field(default="world", description="world | local | local_world_aligned (Pinocchio's meaning)")
     verify: bool = False
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+    base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
 
 
 class JacobianResponse(BaseModel):

@@ -11,6 +11,7 @@ Pure Python + numpy; no web code. Typical use::
 
 from .catalogue import Catalogue, default_catalogue
 from .errors import (
+    BasePoseError,
     DHError,
     JointValueError,
     KinematicsError,
@@ -31,7 +32,7 @@ from .urdf import load_urdf, parse_urdf
 __version__ = "0.1.0"
 
 __all__ = [
-    "Catalogue", "default_catalogue", "DHError", "JointValueError", "KinematicsError", "LimitError",
+    "Catalogue", "default_catalogue", "BasePoseError", "DHError", "JointValueError", "KinematicsError", "LimitError",
     "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
     "UnsupportedJointError", "URDFError", "as_batch", "out_of_limits", "require_within_limits",
     "conditioning", "pose_components", "Joint", "Limits", "Mimic", "RobotModel", "REFERENCES",

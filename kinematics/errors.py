@@ -50,3 +50,7 @@ class LimitError(KinematicsError):
 
 class ReferenceUnavailableError(KinematicsError):
     """The reference implementation (Pinocchio) cannot load or evaluate this model."""
+
+
+class BasePoseError(KinematicsError):
+    """A base pose (the root link's pose in the world) that is malformed or not rigid."""

@@ -239,3 +239,40 @@ def test_verify_when_pinocchio_cannot_load_is_422(api_client, monkeypatch):
         assert r.status_code == 422 and r.headers["content-type"] == PROBLEM
         assert "simulated" in r.json()["detail"]
         assert api_client.post(path, json={"q": [0.0] * 6}).status_code == 200  # without verify: fine
+
+
+def test_base_pose_moves_the_world_frame(api_client, ur5, ur5_q):
+    """`base` (T_world_root): poses and Jacobians equal the library's re-expression; verify still holds."""
+    from kinematics.base_pose import base_poses, jacobian_in_world, poses_in_world
+
+    base = {"xyz": [1.0, -2.0, 0.5], "rpy": [0.1, 0.2, 1.3]}
+    Q = ur5_q[:3]
+    body = api_client.post("/models/ur5/fk", json={"q": Q.tolist(), "links": ["tool0"], "base": base, "verify": True}).json()
+    B = base_poses(base, len(Q))
+    expected = poses_in_world(compile_model(ur5).fk(Q, ["tool0"]), B)
+    np.testing.assert_allclose([p["tool0"]["matrix"] for p in body["poses"]], expected[:, 0], atol=EXACT)
+    assert body["verification"]["max_position_error"] < 1e-9
+    # a different pose per configuration
+    per = [base, {"xyz": [0, 0, 0], "rpy": [0, 0, 0]}, base]
+    body = api_client.post("/models/ur5/fk", json={"q": Q.tolist(), "links": ["tool0"], "base": per}).json()
+    np.testing.assert_allclose(body["poses"][1]["tool0"]["matrix"], compile_model(ur5).fk(Q[1:2], ["tool0"])[0, 0], atol=EXACT)
+    for reference in ("world", "local", "local_world_aligned"):
+        r = api_client.post("/models/ur5/jacobian", json={"q": Q.tolist(), "link": "tool0", "reference": reference,
+                                                        "base": base, "verify": True}).json()
+        J = jacobian_in_world(compile_model(ur5).jacobian(Q, "tool0", reference), B, reference)
+        np.testing.assert_allclose(r["jacobian"], J, atol=EXACT)
+        assert r["verification"]["max_jacobian_error"] < 1e-9
+
+
+@pytest.mark.parametrize("base,needle", [
+    ([[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "base: not a rigid transform"),
+    ({"position": [0, 0, 0], "quaternion": {"w": 0.5, "x": 0, "y": 0, "z": 0}}, "not a unit quaternion"),
+    ([{"xyz": [0, 0, 0], "rpy": [0, 0, 0]}] * 2, "2 poses given for 1 configurations"),
+])
+def test_bad_base_pose_is_422_naming_it(api_client, base, needle):
+    r = api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "base": base})
+    assert r.status_code == 422 and r.headers["content-type"].startswith("application/problem+json")
+    assert needle in r.json()["detail"]
+    r = api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "base": {"xyz": [0, 0], "rpy": [0, 0, 0]}})
+    assert r.status_code == 422  # pydantic or the library: either way a problem naming base
+    assert "base" in r.text

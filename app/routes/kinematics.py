@@ -18,6 +18,7 @@ from fastapi import APIRouter, Depends, Query, Request
 from kinematics import as_batch, compile_model, conditioning, out_of_limits, require_within_limits
 from kinematics.errors import JointValueError
 from kinematics.joints import limit_violations
+from kinematics.base_pose import base_poses, jacobian_in_world, poses_in_world
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
@@ -62,6 +63,7 @@ class Call:
     format: str = "pose"
     link: str | None = None  # Jacobian
     reference: str = "world"
+    base: Any = None  # T_world_root: one pose or one per configuration (JSON bodies)
 
 
 def _split_names(values: list[str] | None):
@@ -192,6 +194,7 @@ def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_
     poe.link_indices(links)  # unknown links: 404 before any work
     _check_verify(call, Q.shape[0], settings)
     _check_result_size(Q.shape[0] * len(links) * 16, settings, f"{Q.shape[0]} configurations x {len(links)} links x 16")
+    B = base_poses(call.base, Q.shape[0])
     T = poe.fk(Q, links)  # the kernels work in bounded chunks
     verification = None
     if call.verify:
@@ -200,6 +203,7 @@ def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(read_fk_
         dev = compare_fk(model, Q, links, poses=T)
         verification = {"reference": dev.reference, "max_position_error": dev.max_position_error,
                         "max_rotation_error": dev.max_rotation_error}
+    T = poses_in_world(T, B)
     if wants_npy(request):
         headers = _names_headers(links, model.joint_names)
         headers["X-Out-Of-Limits"] = _out_of_limits_count(model, Q)
@@ -239,6 +243,7 @@ def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobian_call
     poe.link_indices([link])
     _check_verify(call, Q.shape[0], settings)
     _check_result_size(Q.shape[0] * 6 * model.dof, settings, f"{Q.shape[0]} configurations x 6 x {model.dof}")
+    B = base_poses(call.base, Q.shape[0])
     J = poe.jacobian(Q, link, call.reference)  # the kernels work in bounded chunks
     verification = None
     if call.verify:
@@ -246,6 +251,7 @@ def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobian_call
 
         err = compare_jacobian(model, Q, link, references=(call.reference,), jacobians={call.reference: J})
         verification = {"reference": REFERENCE_NAME, "max_jacobian_error": err}
+    J = jacobian_in_world(J, B, call.reference)
     if wants_npy(request):
         headers = _names_headers([link], model.joint_names)
         headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": call.reference,

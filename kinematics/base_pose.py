@@ -1,0 +1,111 @@
+"""The root link's pose in the world (``T_world_root``), for robots whose base moves or is mounted.
+
+DESIGN.md: "The world frame is the root link's frame unless a base pose is given", and a
+request may give the root link's world pose instead of a floating joint. FK and Jacobians
+are computed in the root frame and then re-expressed in the world:
+
+- poses: ``T_world_L = T_world_root @ T_root_L``;
+- Jacobians (linear rows first), with ``B = T_world_root = (R, p)``:
+  ``world``: ``w' = R w``, ``v' = R v + p x w'`` (the twist's reference point moves to the world
+  origin); ``local_world_aligned``: ``v' = R v``, ``w' = R w``; ``local``: unchanged.
+
+A base pose is a 4x4 matrix (nested lists), ``{"xyz": [x, y, z], "rpy": [r, p, y]}`` (URDF
+roll-pitch-yaw) or ``{"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}`` (unit); for a
+batch, either one pose for every configuration or a list with one pose per configuration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from .errors import BasePoseError
+from .transforms import is_rigid_transform, make_transform, rpy_to_matrix
+from .urdf import MAX_ABS_COORDINATE
+
+#: how far a given rotation / quaternion may be from orthonormal / unit
+RIGID_TOLERANCE = 1e-6
+
+
+def _vector(value, n: int, where: str) -> np.ndarray:
+    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or len(value) != n:
+        raise BasePoseError(f"{where}: expected {n} numbers, got {value!r}")
+    try:
+        v = np.array([float(x) for x in value])
+    except (TypeError, ValueError):
+        raise BasePoseError(f"{where}: {value!r} is not a list of numbers") from None
+    if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_ABS_COORDINATE):
+        raise BasePoseError(f"{where}: {value!r} has a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
+    return v
+
+
+def _one_pose(value, where: str) -> np.ndarray:
+    if isinstance(value, Mapping):
+        keys = set(value)
+        if keys == {"xyz", "rpy"}:
+            return make_transform(rpy_to_matrix(_vector(value["rpy"], 3, f"{where}.rpy")),
+                                  _vector(value["xyz"], 3, f"{where}.xyz"))
+        if keys == {"position", "quaternion"}:
+            quat = value["quaternion"]
+            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
+                raise BasePoseError(f"{where}.quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
+            w, x, y, z = _vector([quat["w"], quat["x"], quat["y"], quat["z"]], 4, f"{where}.quaternion")
+            norm = np.sqrt(w * w + x * x + y * y + z * z)
+            if abs(norm - 1.0) > RIGID_TOLERANCE:
+                raise BasePoseError(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
+            w, x, y, z = np.array([w, x, y, z]) / norm
+            R = np.array([
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ])
+            return make_transform(R, _vector(value["position"], 3, f"{where}.position"))
+        raise BasePoseError(
+            f"{where}: expected {{\"xyz\", \"rpy\"}}, {{\"position\", \"quaternion\"}} or a 4x4 matrix, "
+            f"got the keys {sorted(map(str, keys))}"
+        )
+    if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 4:
+        T = np.array([_vector(row, 4, f"{where}[{i}]") for i, row in enumerate(value)])
+        if not is_rigid_transform(T, RIGID_TOLERANCE):
+            raise BasePoseError(f"{where}: not a rigid transform (rotation orthonormal with det 1, last row 0 0 0 1)")
+        return T
+    raise BasePoseError(f"{where}: expected a pose, got {value!r}")
+
+
+def _is_pose_list(value) -> bool:
+    """A list of poses (as opposed to one 4x4 matrix, whose items are rows of numbers)."""
+    return (isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) > 0
+            and all(isinstance(v, Mapping) or (isinstance(v, Sequence) and not isinstance(v, (str, bytes))
+                                               and len(v) > 0 and not isinstance(v[0], (int, float)))
+                    for v in value))
+
+
+def base_poses(value, n: int) -> np.ndarray | None:
+    """``T_world_root`` for each of ``n`` configurations: (n, 4, 4), or None when no base is given."""
+    if value is None:
+        return None
+    if _is_pose_list(value):
+        if len(value) != n:
+            raise BasePoseError(f"base: {len(value)} poses given for {n} configurations (give one, or one each)")
+        return np.stack([_one_pose(v, f"base[{i}]") for i, v in enumerate(value)])
+    return np.broadcast_to(_one_pose(value, "base"), (n, 4, 4))
+
+
+def poses_in_world(T_root_links: np.ndarray, B: np.ndarray | None) -> np.ndarray:
+    """``T_world_L = B @ T_root_L`` for poses (N, L, 4, 4) and base poses B (N, 4, 4) (None: unchanged)."""
+    if B is None:
+        return T_root_links
+    return np.matmul(B[:, None], T_root_links)
+
+
+def jacobian_in_world(J: np.ndarray, B: np.ndarray | None, reference: str) -> np.ndarray:
+    """Re-express Jacobians (N, 6, n) of the root frame in the world given base poses B (N, 4, 4)."""
+    if B is None or reference == "local":
+        return J
+    R, p = B[:, :3, :3], B[:, :3, 3]
+    ang = R @ J[:, 3:, :]
+    lin = R @ J[:, :3, :]
+    if reference == "world":
+        lin = lin + np.cross(p[:, :, None], ang, axisa=1, axisb=1, axisc=1)
+    return np.concatenate([lin, ang], axis=1)
