@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .errors import BasePoseError
-from .transforms import is_rigid_transform, make_transform, rpy_to_matrix
+from .transforms import is_rigid_transform, make_transform, quaternion_to_matrix, rpy_to_matrix
 from .urdf import MAX_ABS_COORDINATE
 
 #: how far a given rotation / quaternion may be from orthonormal / unit
@@ -54,12 +54,7 @@ def _one_pose(value, where: str) -> np.ndarray:
             norm = np.sqrt(w * w + x * x + y * y + z * z)
             if abs(norm - 1.0) > RIGID_TOLERANCE:
                 raise BasePoseError(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
-            w, x, y, z = np.array([w, x, y, z]) / norm
-            R = np.array([
-                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-            ])
+            R = quaternion_to_matrix(*(np.array([w, x, y, z]) / norm))
             return make_transform(R, _vector(value["position"], 3, f"{where}.position"))
         raise BasePoseError(
             f"{where}: expected {{\"xyz\", \"rpy\"}}, {{\"position\", \"quaternion\"}} or a 4x4 matrix, "

@@ -101,6 +101,15 @@ def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
     return q.reshape(batch + (4,))
 
 
+def quaternion_to_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
+    """Rotation (3, 3) of the unit quaternion ``(w, x, y, z)`` (the inverse of :func:`matrix_to_quaternion`)."""
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
 def make_transform(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Homogeneous 4x4 transform from a rotation (3, 3) and a translation (3,)."""
     T = np.eye(4)
