@@ -233,14 +233,7 @@ class Registry:
     def add_urdf(self, data: bytes, name: str | None = None) -> tuple[ModelRecord, bool]:
         """Register URDF bytes; ``(record, created)``. Raises URDFError for a bad document."""
         model = parse_urdf(data, max_links=self.max_links)
-        model_id = urdf_id(data)
-        try:
-            return self.get(model_id), False
-        except UnknownModelError:
-            pass
-        meta = {"id": model_id, "name": name or model.name, "source": SOURCE_UPLOAD, "created": _now()}
-        self._store(model_id, meta, data)
-        return self._load_stored(model_id), True
+        return self._register(urdf_id(data), model, data, name, SOURCE_UPLOAD)
 
     def add_dh(self, table_dict: dict[str, Any], name: str | None = None) -> tuple[ModelRecord, bool]:
         """Register a model built from a DH table (the JSON of DESIGN.md); ``(record, created)``."""
@@ -249,14 +242,25 @@ class Registry:
         table = dh.table_from_dict(table_dict)
         canonical = canonical_json(dh.table_to_dict(table, angles=DH_CANONICAL_ANGLES))
         model = parse_urdf(dh.table_to_urdf(table), max_links=self.max_links)
-        model_id = dh_id(canonical)
+        return self._register(dh_id(canonical), model, canonical, name, SOURCE_DH, json.loads(canonical))
+
+    def _register(self, model_id: str, model: RobotModel, content: bytes, name: str | None, source: str,
+                  table: dict[str, Any] | None = None) -> tuple[ModelRecord, bool]:
+        """``(record, created)``: the model already stored under ``model_id``, or ``model`` stored now.
+
+        A new record is built from the model the caller parsed, not read and parsed again from disk.
+        """
         try:
             return self.get(model_id), False
         except UnknownModelError:
             pass
-        meta = {"id": model_id, "name": name or model.name, "source": SOURCE_DH, "created": _now()}
-        self._store(model_id, meta, canonical)
-        return self._load_stored(model_id), True
+        meta = {"id": model_id, "name": name or model.name, "source": source, "created": _now()}
+        self._store(model_id, meta, content)
+        key = _file_key(os.stat(self._content_path(model_id)))
+        rec = ModelRecord(model_id, meta["name"], source, model, meta["created"], table, key)
+        with self._lock:
+            self._stored[model_id] = rec
+        return rec, True
 
     def _store(self, model_id: str, meta: dict[str, Any], content: bytes) -> None:
         """Sidecar, then content, each atomically. A disk that is full or read-only answers a 507
