@@ -18,7 +18,6 @@ from fastapi.openapi.utils import get_openapi
 from pydantic.json_schema import models_json_schema
 
 import kinematics
-from kinematics import parse_urdf
 from kinematics.catalogue import default_catalogue
 
 from .docs import install_docs
@@ -35,8 +34,6 @@ log = logging.getLogger("app")
 ROUTERS = ("health", "models", "kinematics", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
 #: parsed at start-up so that the parser's imports (yourdfpy, trimesh: ~1 s) are not paid by a request
-WARM_UP_URDF = '<robot name="warm_up"><link name="base"/></robot>'
-
 DESCRIPTION = """Forward kinematics and Jacobians of robots (URDF or Denavit-Hartenberg), computed with
 product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
 
@@ -117,7 +114,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         data_dir = settings.resolved_data_dir()
-        parse_urdf(WARM_UP_URDF)  # import the URDF parser stack now, not on the first request
+        kinematics.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
         registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
         loaded = registry.load_stored()
         app.state.registry = registry

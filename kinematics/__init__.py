@@ -1,6 +1,6 @@
 """Kinematics library: URDF and DH robot models, product-of-exponentials FK and Jacobians.
 
-Pure Python + numpy; no web code. Typical use::
+Python, numpy and one numba-compiled kernel; no web code. Typical use::
 
     from kinematics import default_catalogue, compile_model, as_batch
     model = default_catalogue().get("ur5")
@@ -26,7 +26,7 @@ from .errors import (
 from .joints import as_batch, out_of_limits, require_within_limits
 from .measures import conditioning, pose_components
 from .model import Joint, Limits, Mimic, RobotModel
-from .poe import REFERENCES, PoEModel, compile_model
+from .poe import REFERENCES, PoEModel, compile_model, warm_up
 from .urdf import load_urdf, parse_urdf
 
 __version__ = "0.1.0"
@@ -36,5 +36,5 @@ __all__ = [
     "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
     "UnsupportedJointError", "URDFError", "as_batch", "out_of_limits", "require_within_limits",
     "conditioning", "pose_components", "Joint", "Limits", "Mimic", "RobotModel", "REFERENCES",
-    "PoEModel", "compile_model", "load_urdf", "parse_urdf", "__version__",
+    "PoEModel", "compile_model", "load_urdf", "parse_urdf", "warm_up", "__version__",
 ]

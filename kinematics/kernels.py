@@ -4,8 +4,10 @@ These kernels evaluate exactly the product of :mod:`kinematics.poe`,
 
     T_world_L(q) = exp([S_1] θ_1) ... exp([S_k] θ_k) M_L,
 
-but arrange the arithmetic so that a batch costs a few large numpy operations per joint
-instead of many small ones. The reference implementation (``PoEModel.fk_reference``,
+but arrange the arithmetic so that a batch costs little per configuration. FK runs the
+compiled kernel of :mod:`kinematics.compiled` (numba; one pass per chunk, every pose
+written once into the result); the Jacobians run numpy structure-of-arrays code, a few
+large operations per joint. The reference implementation (``PoEModel.fk_reference``,
 ``PoEModel.jacobian_reference``) stays the definition; ``tests/test_kernels.py`` checks
 that both agree to 1e-12 on every catalogue model.
 
@@ -25,27 +27,25 @@ two rotation columns of ``F_j`` with ``cos θ`` and ``sin θ`` (prismatic: adds 
 third column to the translation), and ``F_j``'s third column and origin are the joint axis
 and a point on it in world coordinates, which is all the Jacobian needs.
 
-Layout
-------
-A batch of frames is one ``(13, C)`` float64 buffer per tree depth: rows ``3c + r`` hold
-``T[r, c]`` (the columns of the 3x4 part: three rotation columns, then the translation)
-and row 12 holds ones; ``C`` configurations (a chunk) run along the fast axis. Then
+Layout (Jacobians)
+------------------
+A batch of frames is one ``(13, C)`` float64 buffer per joint of the path: rows ``3c + r``
+hold ``T[r, c]`` (the columns of the 3x4 part: three rotation columns, then the
+translation) and row 12 holds ones; ``C`` configurations (a chunk) run along the fast
+axis. Then
 
 - the constant right-product ``F · K`` is one matrix product ``K^T (4, 4) @ F (4, 3C)``;
 - the mixing by ``Z(θ)`` is four in-place element-wise calls on the ``(2, 3, C)`` rows of
   the first two columns;
-- a link's pose is one ``(C, 13) @ (13, 16)`` product written straight into the output
-  ``(N, L, 4, 4)`` (the transposition to configuration-major order happens inside BLAS,
-  the ones row supplies the homogeneous ``[0, 0, 0, 1]``);
 - sine and cosine come from a vectorised polynomial (fdlibm's kernels, Cody-Waite
   reduction by π/2), about twice as fast as ``np.sin`` plus ``np.cos`` here, and within an
   ulp of them; arguments beyond ``SINCOS_MAX_ARG`` fall back to numpy.
 
-Joints are visited depth first, so the frames of a joint's ancestors sit in the buffers of
-the smaller depths; memory is ``O(depth · chunk)`` whatever N. Results start on a
-cache-line boundary. Batches of at most ``SMALL_BATCH`` configurations (a single one
-above all) take a path with few numpy calls: all factors ``CZ_j Z(θ_j)`` in one product,
-then the prefix products by pointer jumping (``_frames_small``).
+Memory is ``O(path length · chunk)`` whatever N. Batches of at most ``SMALL_BATCH``
+configurations take a path with few numpy calls: all factors ``CZ_j Z(θ_j)`` in one
+product, then the prefix products by pointer jumping (``_frames_small``).
+
+FK results of at least ``ALIGN_MIN_ELEMENTS`` values start on a cache-line boundary.
 
 Example (the reference and the kernels agree)::
 
@@ -59,11 +59,13 @@ Example (the reference and the kernels agree)::
 
 from __future__ import annotations
 
-import threading
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from . import compiled
 
 if TYPE_CHECKING:  # pragma: no cover
     from .poe import PoEModel
@@ -77,6 +79,8 @@ SINCOS_BLOCK = 16384
 SMALL_BATCH = 16
 #: Bytes of a cache line: results and frame buffers start on such a boundary.
 CACHE_LINE = 64
+#: Arrays with fewer elements than this are not aligned beyond numpy's 16 bytes.
+ALIGN_MIN_ELEMENTS = 4096
 #: Visiting plans (per list of requested links) kept per model.
 PLAN_CACHE_SIZE = 256
 #: Largest |θ| for which the polynomial sine/cosine is used (exact reduction below 2^20 · π/2).
@@ -187,8 +191,8 @@ def sincos_scratch(size: int) -> tuple[np.ndarray, np.ndarray]:
     return np.empty((5, blk)), np.empty(blk, dtype=np.int64)
 
 
-#: one configuration: a 4x4 np.dot per joint is preferred while there are at most this many
-#: per batched pointer-jumping product it replaces (measured ≈ 0.6 µs vs ≈ 2 µs per call)
+#: small Jacobian batches: one batched 4x4 product per joint is preferred while there are at
+#: most this many per pointer-jumping product it replaces
 SEQUENTIAL_CALLS_PER_JUMP = 3
 
 
@@ -198,7 +202,9 @@ def aligned_empty(shape: tuple[int, ...], align: int = CACHE_LINE) -> np.ndarray
     numpy's allocations are 16-byte aligned; a 4x4 pose (128 bytes) then straddles three cache
     lines instead of two, and the per-link writes of the kernels touch each boundary line twice.
     """
-    n = int(np.prod(shape, dtype=np.int64))
+    n = math.prod(shape)
+    if n < ALIGN_MIN_ELEMENTS:  # small: not worth the extra call (~2 µs)
+        return np.empty(shape)
     raw = np.empty(n + align // 8)
     start = (-raw.ctypes.data % align) // 8
     return raw[start:start + n].reshape(shape)
@@ -236,36 +242,13 @@ def _inverse(T: np.ndarray) -> np.ndarray:
     return Ti
 
 
-def _pose_map(D: np.ndarray) -> np.ndarray:
-    """(13, 16) matrix taking a frame's 13-row vector to the row-major 4x4 of ``F @ D``."""
-    out = np.zeros((13, 16))
-    for r in range(3):
-        for c in range(4):
-            for k in range(4):
-                out[3 * k + r, 4 * r + c] = D[k, c]
-    out[12, 15] = 1.0
-    return out
-
-
 @dataclass(frozen=True)
 class _Plan:
-    """Which joints to visit (depth-first) and which outputs each produces, for a link list."""
+    """What the compiled FK kernel computes for a list of output links."""
 
-    order: tuple[int, ...]  # joints to visit, parents first
-    outputs: tuple[tuple[tuple[int, int, np.ndarray], ...], ...]  # per visited joint: (start, count, (13, 16·count))
-    fixed: tuple[tuple[int, int, np.ndarray], ...]  # runs of links above every moving joint: (start, count, poses (16·count,))
-    one_frame: np.ndarray  # single-configuration path, per output: the frame it hangs from (n: identity)
-    one_pose: np.ndarray  # (L', 4, 4) and the constant right factor (G_j^-1 M_L, or M_L)
-
-
-@dataclass
-class _Work:
-    th: np.ndarray  # (n, C) joint values
-    S: np.ndarray  # (n, C) sin θ
-    C: np.ndarray  # (n, C) cos θ
-    F: np.ndarray  # (depth, 13, C) axis frames along the current DFS path
-    t: np.ndarray  # (2, 3, C) scratch
-    sc: tuple[np.ndarray, np.ndarray] | None = None  # sincos scratch
+    order: np.ndarray  # (m,) int64 joints to compute, parents first
+    lj: np.ndarray  # (L',) int64 per output: the joint frame it hangs from (-1: a constant pose)
+    pose: np.ndarray  # (L', 4, 4) per output: the constant right factor (G_j^-1 M_L, or M_L)
 
 
 class Kernel:
@@ -274,8 +257,9 @@ class Kernel:
     Attributes (n moving joints, L links):
         K: (n, 4, 4) ``(G_parent^-1 G_j)^T``, the constant step of each joint, transposed.
         root_frame: (n, 12) the frame vector of ``G_j`` (used for joints at the root).
-        D: (L, 13, 16) pose maps ``F_j -> T_world_L`` (zeros for links above every joint).
-        CZ: (n, 4, 4) ``(G_parent^-1 G_j)`` for the single-configuration path.
+        D4: (L, 4, 4) ``G_j^-1 M_L``, the constant right factor of each link's pose (zeros for
+            links above every moving joint).
+        CZ: (n, 4, 4) ``(G_parent^-1 G_j)``.
         depth: (n,) depth of each joint among the moving joints (buffer index).
     """
 
@@ -294,13 +278,11 @@ class Kernel:
         self.K = np.ascontiguousarray(np.swapaxes(CZ, 1, 2))
         self.root_frame = np.ascontiguousarray(np.swapaxes(G[:, :3, :], 1, 2)).reshape(n, 12)
         D4 = np.zeros((L, 4, 4))
-        D = np.zeros((L, 13, 16))
         for li in range(L):
             j = poe.link_joint[li]
             if j >= 0:
                 D4[li] = _inverse(G[j]) @ poe.M[li]
-                D[li] = _pose_map(D4[li])
-        self.D4, self.D = D4, D
+        self.D4 = D4
         depth = np.zeros(n, dtype=np.intp)
         children: list[list[int]] = [[] for _ in range(n)]
         roots = []
@@ -370,17 +352,25 @@ class Kernel:
         self._chain = m if n and np.all(poe.parent[rest] < m) and not np.isin(rest, poe.parent).any() else 0
         self._chain_leaves = rest
         self._chain_leaf_parents = np.asarray(poe.parent[rest], dtype=np.intp)
-        # one configuration: the prefix products one 4x4 product per joint (np.dot into a row of
-        # the frame array, ~0.6 µs each) when that is fewer call-costs than pointer jumping
-        # (~2 µs per batched product)
+        # small batches: the prefix products one 4x4 product per joint when that is fewer calls
+        # than pointer jumping
         self._one_steps = tuple((j, int(poe.parent[j])) for j in self.dfs if poe.parent[j] >= 0)
         jump_calls = (int(np.ceil(np.log2(m))) if m > 1 else 0) + (len(rest) > 0) if self._chain else len(jumps)
-        self._scratch = threading.local()
         self._one_sequential = n > 0 and len(self._one_steps) <= SEQUENTIAL_CALLS_PER_JUMP * jump_calls
+        # the compiled FK kernel's joint tables (see kinematics.compiled)
+        jint = np.zeros((n, 3), dtype=np.int64)
+        jint[:, compiled.J_QINDEX] = self.q_index
+        jint[:, compiled.J_KIND] = self.kind
+        jint[:, compiled.J_PARENT] = poe.parent
+        jflt = np.zeros((n, 14))
+        jflt[:, compiled.J_MULT] = self.multiplier
+        jflt[:, compiled.J_OFFSET] = self.offset
+        jflt[:, compiled.J_CZ:] = CZ[:, :3, :].reshape(n, 12)
+        self._jint, self._jflt = jint, jflt
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
         self._plan_all = self.plan(None)
         self._jplans: dict[int, tuple] = {}
-        for a in (self.K, self.root_frame, self.D, self.D4, self.CZ, self._basis, self.depth, self._w_template, self._q_map):
+        for a in (self._jint, self._jflt, self.K, self.root_frame, self.D4, self.CZ, self._basis, self.depth, self._w_template, self._q_map):
             a.setflags(write=False)
 
     # ------------------------------------------------------------------ plans
@@ -393,120 +383,39 @@ class Kernel:
         poe = self.poe
         idx = np.arange(self.L) if link_idx is None else np.asarray(link_idx, dtype=np.intp)
         needed = np.zeros(self.n, dtype=bool)
-        per_joint: dict[int, list[tuple[int, int]]] = {}
-        fixed = []
-        for k, li in enumerate(idx):
+        for li in idx:
             j = int(poe.link_joint[li])
-            if j < 0:
-                fixed.append((k, int(li)))
-                continue
-            per_joint.setdefault(j, []).append((k, int(li)))
             while j >= 0 and not needed[j]:
                 needed[j] = True
                 j = int(poe.parent[j])
-        order = tuple(j for j in self.dfs if needed[j])
-        fixed_runs = []
-        start = 0
-        while start < len(fixed):  # consecutive output positions: one broadcast assignment
-            stop = start + 1
-            while stop < len(fixed) and fixed[stop][0] == fixed[stop - 1][0] + 1:
-                stop += 1
-            poses = np.concatenate([poe.M[li].reshape(16) for _, li in fixed[start:stop]])
-            fixed_runs.append((fixed[start][0], stop - start, poses))
-            start = stop
-        outputs = []
-        for j in order:
-            runs: list[tuple[int, int, np.ndarray]] = []
-            items = per_joint.get(j, [])
-            start = 0
-            while start < len(items):  # group consecutive output positions into one product
-                stop = start + 1
-                while stop < len(items) and items[stop][0] == items[stop - 1][0] + 1:
-                    stop += 1
-                Dm = np.concatenate([self.D[li] for _, li in items[start:stop]], axis=1)
-                runs.append((items[start][0], stop - start, Dm))
-                start = stop
-            outputs.append(tuple(runs))
-        one_frame = np.array([poe.link_joint[li] if poe.link_joint[li] >= 0 else self.n for li in idx], dtype=np.intp)
-        one_pose = np.array([self.D4[li] if poe.link_joint[li] >= 0 else poe.M[li] for li in idx]).reshape(len(idx), 4, 4)
-        plan = _Plan(order=order, outputs=tuple(outputs), fixed=tuple(fixed_runs), one_frame=one_frame,
-                     one_pose=one_pose)
-        for a in (one_frame, one_pose, *(p for _, _, p in fixed_runs), *(d for runs in outputs for _, _, d in runs)):
+        order = np.array([j for j in self.dfs if needed[j]], dtype=np.int64)
+        lj = np.array([poe.link_joint[li] for li in idx], dtype=np.int64).reshape(len(idx))
+        pose = np.array([self.D4[li] if poe.link_joint[li] >= 0 else poe.M[li] for li in idx]).reshape(len(idx), 4, 4)
+        plan = _Plan(order=order, lj=lj, pose=pose)
+        for a in (order, lj, pose):
             a.setflags(write=False)
         if len(self._plans) < PLAN_CACHE_SIZE:  # bounded cache; a plan is immutable
             self._plans[key] = plan
         return plan
 
-    # ------------------------------------------------------------------ FK, batches
+    # ------------------------------------------------------------------ FK
     def fk(self, Q: np.ndarray, link_idx: np.ndarray | None = None, out: np.ndarray | None = None,
-           chunk: int = CHUNK_SIZE) -> np.ndarray:
-        """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof)."""
+           chunk: int = compiled.CHUNK) -> np.ndarray:
+        """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof).
+
+        One call of the compiled kernel (:func:`kinematics.compiled.fk`) whatever N: a single
+        configuration takes the same arithmetic as a row of a batch, bit for bit.
+        """
         N = Q.shape[0]
         plan = self._plan_all if link_idx is None else self.plan(link_idx)
-        if N == 1 and self._one_sequential:
-            G = self._frames_one(Q).take(plan.one_frame, axis=0)  # (L', 4, 4) frames of the links' joints
-            if out is None:
-                return np.matmul(G, plan.one_pose).reshape(1, *plan.one_pose.shape)
-            np.matmul(G, plan.one_pose, out=out[0])
-            return out
-        if 0 < N <= SMALL_BATCH and self.n:
-            F = self._frames_small(Q)[:, plan.one_frame]
-            if out is None:
-                return np.matmul(F, plan.one_pose)
-            np.matmul(F, plan.one_pose, out=out)
-            return out
-        n_out = self.L if link_idx is None else len(link_idx)
+        n_out = plan.lj.shape[0]
         if out is None:
             out = aligned_empty((N, n_out, 4, 4))
-        if N == 0:
-            return out
-        flat = out.reshape(N, 16 * n_out)
-        work = None
-        for a in range(0, N, chunk):
-            b = min(N, a + chunk)
-            dst = flat[a:b]
-            for start, count, poses in plan.fixed:  # links above every moving joint: constants
-                dst[:, 16 * start:16 * (start + count)] = poses
-            if not plan.order:
-                continue
-            work = self._chunk_setup(Q[a:b], work)
-            for j, runs in zip(plan.order, plan.outputs):
-                Fj = self._advance(work, j)
-                if runs:
-                    FjT = Fj.T
-                    for start, count, Dm in runs:
-                        np.matmul(FjT, Dm, out=dst[:, 16 * start:16 * (start + count)])
+        if N:
+            Q = np.ascontiguousarray(Q, dtype=np.float64)
+            compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, plan.pose, out.reshape(N, n_out, 16),
+                        max(1, min(chunk, N)))
         return out
-
-    def _work(self, C: int) -> "_Work":
-        """Workspace for chunks of ``C`` configurations (reused chunk after chunk)."""
-        n = self.n
-        F = aligned_empty((self.n_depth, 13, C))
-        F[:, 12] = 1.0
-        return _Work(th=np.empty((n, C)), S=np.empty((n, C)), C=np.empty((n, C)), F=F,
-                     t=np.empty((2, 3, C)), sc=sincos_scratch(n * C))
-
-    def _chunk_setup(self, Qc: np.ndarray, work: "_Work | None" = None) -> "_Work":
-        """Joint values of a chunk, their sines and cosines, in ``work`` (a new one if None)."""
-        C = Qc.shape[0]
-        if work is None or work.F.shape[2] != C:
-            work = self._work(C)
-        th = work.th
-        if self.plain_q:
-            np.copyto(th, Qc.T)
-        else:
-            np.take(Qc.T, self.q_index, axis=0, out=th)
-            th *= self.multiplier[:, None]
-            if self._has_offset:
-                th += self.offset[:, None]
-        sincos(th, work.S, work.C, work.sc)
-        return work
-
-    def _advance(self, w: "_Work", j: int) -> np.ndarray:
-        """Axis frame of joint ``j`` (13, C) into its depth buffer (its parent's is in the one above)."""
-        d = self.depth[j]
-        self._joint_step(w.F[d - 1] if d else None, w.F[d], j, w.S[j], w.C[j], w.th[j], w.t)
-        return w.F[d]
 
     def _joint_step(self, Fp, Fj, j: int, s, c, th, t) -> None:
         """``F_j = F_parent · CZ_j · Z(θ_j)`` for a chunk: frame vectors (13, C); ``Fp`` None at the root.
@@ -529,42 +438,6 @@ class Kernel:
             Fj[9:12] += t[0]  # t' = t + θ·z
 
     # ------------------------------------------------------------------ small batches
-    def _frames_one(self, Q: np.ndarray) -> np.ndarray:
-        """Axis frames F (n + 1, 4, 4) of every moving joint for one configuration Q (1, dof); F[n] = I.
-
-        ``CZ_j Z(θ_j)`` for all joints in one product, then one 4x4 product per non-root joint
-        in depth-first order (parents first): the fewest numpy calls for short trees. Works in
-        this thread's scratch arrays (with their views prepared once): the returned array is
-        overwritten by the thread's next call, so the caller copies what it keeps.
-        """
-        sc = getattr(self._scratch, "one", None)
-        if sc is None:
-            sc = self._scratch.one = self._one_scratch()
-        w, W, F, P, sin_out, cos_out, theta_out, steps = sc
-        th = Q[0] if self.plain_q else Q[0] @ self._q_map
-        if self._has_offset:
-            th = th + self.offset
-        np.sin(th, out=sin_out)
-        np.cos(th, out=cos_out)
-        if self._has_prismatic:
-            np.copyto(theta_out, th)
-        np.matmul(w, self._basis, out=W)  # CZ_j Z(θ_j); F[n] = I
-        np.copyto(P, F)  # roots: P_j = F_j
-        dot = np.dot
-        for a, b, c in steps:
-            dot(a, b, out=c)
-        return P
-
-    def _one_scratch(self) -> tuple:
-        """A thread's scratch for :meth:`_frames_one`: arrays and the views the call writes through."""
-        n = self.n
-        w = self._w_template.copy()  # (n + 1, 1, 4): (1, sin θ, cos θ, θ) per joint
-        W = np.empty((n + 1, 1, 16))
-        F = W.reshape(n + 1, 4, 4)
-        P = np.empty((n + 1, 4, 4))
-        steps = tuple((P[p], F[j], P[j]) for j, p in self._one_steps)
-        return w, W, F, P, w[:n, 0, 1], w[:n, 0, 2], w[:n, 0, 3], steps
-
     def _frames_small(self, Q: np.ndarray) -> np.ndarray:
         """Axis frames F (N, n + 1, 4, 4) of every moving joint for a small batch (F[:, n] = I).
 
@@ -590,7 +463,7 @@ class Kernel:
         if self._has_prismatic:
             w[:, :n, 0, 3] = th
         F = np.matmul(w, self._basis).reshape(N, n + 1, 4, 4)  # CZ_j Z(θ_j); F[:, n] = I
-        if self._one_sequential:  # as _frames_one, product for product: N = 1 equals a row of a batch, bit for bit
+        if self._one_sequential:  # short trees: one product per joint costs fewer calls than pointer jumping
             P = F.copy()
             for j, p in self._one_steps:
                 np.matmul(P[:, p], F[:, j], out=P[:, j])

@@ -277,3 +277,23 @@ def compile_model(model: RobotModel) -> PoEModel:
         cached = PoEModel.from_model(model)
         object.__setattr__(model, "_poe", cached)
     return cached
+
+
+#: A one-joint robot for :func:`warm_up`.
+_WARM_UP_URDF = """<robot name="warm_up">
+  <link name="base"/><link name="arm"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
+
+
+def warm_up() -> None:
+    """Import the URDF parser stack and load the compiled FK kernel now (compiling it on the
+    first run on a machine, a few seconds; then from numba's disk cache), so that a server's
+    first request does not pay for either."""
+    from .urdf import parse_urdf
+
+    model = parse_urdf(_WARM_UP_URDF)
+    poe = compile_model(model)
+    poe.fk(np.zeros((1, model.dof)))
+    poe.jacobian(np.zeros((1, model.dof)), "arm")

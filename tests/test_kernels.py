@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from kinematics import compile_model, parse_urdf
-from kinematics import kernels
+from kinematics import compiled, kernels
 from kinematics.errors import KinematicsError, UnknownLinkError
 from kinematics.kernels import SMALL_BATCH, sincos
 from kinematics.poe import REFERENCES
@@ -113,13 +113,12 @@ def test_n_zero_and_one(catalogue):
 
 
 def test_single_configuration_results_are_fresh_and_thread_safe(catalogue):
-    """The N = 1 path works in per-thread scratch: a result is never overwritten by a later call,
-    and concurrent threads each get their own configuration's poses."""
+    """A result is never overwritten by a later call, and concurrent threads (the compiled
+    kernel releases the GIL; its scratch is per call) each get their own configuration's poses."""
     from concurrent.futures import ThreadPoolExecutor
 
-    model = catalogue.get("panda")  # sequential N = 1 path, with a mimic finger and a prismatic joint
+    model = catalogue.get("panda")  # a mimic finger and a prismatic joint
     poe = compile_model(model)
-    assert poe.kernel._one_sequential
     Q = model.sample_configurations(64, np.random.default_rng(11))
     ref = poe.fk_reference(Q)
     first = poe.fk(Q[:1])
@@ -229,11 +228,13 @@ def test_fk_out_buffer(catalogue):
 def test_results_are_cache_line_aligned(catalogue):
     model = catalogue.get("ur5")
     poe = compile_model(model)
-    for n in (SMALL_BATCH + 1, 100):
+    for n in (100, 1000):  # results of at least ALIGN_MIN_ELEMENTS values
         T = poe.fk(model.sample_configurations(n, np.random.default_rng(n)))
         assert T.ctypes.data % kernels.CACHE_LINE == 0 and T.flags.c_contiguous and T.dtype == np.float64
-    A = kernels.aligned_empty((3, 5, 7))
-    assert A.shape == (3, 5, 7) and A.ctypes.data % kernels.CACHE_LINE == 0 and A.flags.c_contiguous
+    A = kernels.aligned_empty((30, 50, 7))
+    assert A.shape == (30, 50, 7) and A.ctypes.data % kernels.CACHE_LINE == 0 and A.flags.c_contiguous
+    small = kernels.aligned_empty((3, 5, 7))  # below ALIGN_MIN_ELEMENTS: numpy's own alignment
+    assert small.shape == (3, 5, 7) and small.flags.c_contiguous
 
 
 def test_sincos_matches_numpy():
@@ -255,6 +256,25 @@ def test_sincos_matches_numpy():
     s, c = sincos(th)
     np.testing.assert_allclose(s, np.sin(th), rtol=0, atol=4e-16)
     np.testing.assert_allclose(c, np.cos(th), rtol=0, atol=4e-16)
+
+
+def test_compiled_sincos_matches_numpy():
+    """The compiled kernel's own sine/cosine (kinematics.compiled): within 4e-16 of numpy's, and
+    numpy's (libm's) values beyond the exactly reduced range and for non-finite arguments."""
+    rng = np.random.default_rng(1)
+    th = np.concatenate([rng.uniform(-7, 7, 5001), rng.uniform(-1e6, 1e6, 5000),
+                         [0.0, -0.0, np.pi / 4, -np.pi / 4, np.pi / 2, np.pi, 3 * np.pi / 2, 1e-300, 7.5e5]])
+    s, c = np.empty_like(th), np.empty_like(th)
+    compiled.sincos(th, s, c)
+    np.testing.assert_allclose(s, np.sin(th), rtol=0, atol=4e-16)
+    np.testing.assert_allclose(c, np.cos(th), rtol=0, atol=4e-16)
+    odd = np.array([3e6, -1e12, np.nan, np.inf, 0.5])
+    s, c = np.empty_like(odd), np.empty_like(odd)
+    compiled.sincos(odd, s, c)
+    np.testing.assert_array_equal(s[:2], np.sin(odd[:2]))
+    np.testing.assert_array_equal(c[:2], np.cos(odd[:2]))
+    assert np.isnan(s[2:4]).all() and np.isnan(c[2:4]).all()
+    assert abs(s[4] - np.sin(0.5)) <= 1e-16
 
 
 def test_axis_frames_are_rotations_on_the_axis(catalogue):

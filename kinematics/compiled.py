@@ -1,0 +1,203 @@
+"""Compiled (numba) forward kinematics: the axis-frame product of :mod:`kinematics.kernels`,
+one pass per chunk of configurations with every intermediate in registers or L1/L2.
+
+The numpy kernels of :mod:`kinematics.kernels` cost a few large array operations per joint
+and per link; what bounds them is memory traffic (every operation reads and writes whole
+``(13, chunk)`` rows, and the poses go through a BLAS product into the result). This
+module computes the same products,
+
+    F_j = F_parent(j) · CZ_j · Z(θ_j)           T_world_L = F_j · D_L
+
+(see :mod:`kinematics.kernels` for the regrouping), with loops that LLVM vectorises over
+the configurations of a chunk, and writes each pose once, straight into the result.
+
+- Joint values: ``θ_j = multiplier_j · q[q_index_j] + offset_j`` (mimic joints), then sine
+  and cosine by the same fdlibm polynomials as :func:`kinematics.kernels.sincos` (exact
+  Cody-Waite reduction for ``|θ| <= SINCOS_MAX_ARG``; larger or non-finite values use libm).
+- Frames: structure of arrays ``F[j, 12, chunk]`` (row ``4r + c`` holds ``F[r, c]``), the
+  rows padded so that they are not 4 KiB apart (rows exactly 4 KiB apart alias in L1 and
+  cost 2x here).
+- Poses: configuration by configuration, every requested link's 4x4 written contiguously.
+
+No fast-math: LLVM does not contract or reassociate, so the vectorised body and its
+scalar remainder give the same bits, and a single configuration equals its row of a batch.
+Functions are compiled on first use and cached on disk (``cache=True``; numba keeps the
+cache next to this file, or in ``NUMBA_CACHE_DIR``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+#: Configurations per chunk of the compiled kernel (frames of one chunk stay in L2).
+CHUNK = 256
+#: Padding (float64 elements) of each frame row, so rows of a chunk are not 4 KiB apart.
+ROW_PAD = 8
+#: Largest |θ| reduced exactly by the polynomial sine/cosine (as kinematics.kernels).
+SINCOS_MAX_ARG = 1.0e6
+
+# fdlibm kernels (see kinematics.kernels for the derivation of the constants)
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_PIO2_1 = 1.57079632673412561417e00
+_PIO2_1T = 6.07710050650619224932e-11
+_S1, _S2, _S3 = 1.58969099521155010221e-10, -2.50507602534068634195e-08, 2.75573137070700676789e-06
+_S4, _S5, _S6 = -1.98412698298579493134e-04, 8.33333333332248946124e-03, -1.66666666666666324348e-01
+_C1, _C2, _C3 = -1.13596475577881948265e-11, 2.08757232129817482790e-09, -2.75573143513906633035e-07
+_C4, _C5, _C6 = 2.48015872894767294178e-05, -1.38888888888741095749e-03, 4.16666666666666019037e-02
+
+_JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+
+#: columns of the per-joint integer table
+J_QINDEX, J_KIND, J_PARENT = 0, 1, 2
+#: columns of the per-joint float table: multiplier, offset, then CZ_j[:3, :4] row-major
+J_MULT, J_OFFSET, J_CZ = 0, 1, 2
+
+
+@nb.njit(**_JIT)
+def _sincos_row(th, s, c, m):
+    """sin and cos of ``th[:m]`` into ``s[:m]``, ``c[:m]`` (vectorised polynomial, libm beyond range)."""
+    for i in range(m):
+        x = th[i]
+        k = np.rint(x * _TWO_OVER_PI)
+        r = (x - k * _PIO2_1) - k * _PIO2_1T
+        z = r * r
+        sr = r + r * z * (_S6 + z * (_S5 + z * (_S4 + z * (_S3 + z * (_S2 + z * _S1)))))
+        cr = 1.0 - 0.5 * z + z * z * (_C6 + z * (_C5 + z * (_C4 + z * (_C3 + z * (_C2 + z * _C1)))))
+        q = np.int64(k) & 3
+        A = abs(q - 2.0) - 1.0  # cos(q π/2)
+        B = 1.0 - abs(q - 1.0)  # sin(q π/2)
+        s[i] = A * sr + B * cr
+        c[i] = A * cr - B * sr
+    for i in range(m):  # rare: huge or non-finite arguments
+        x = th[i]
+        if not abs(x) <= SINCOS_MAX_ARG:
+            s[i] = math.sin(x)
+            c[i] = math.cos(x)
+
+
+@nb.njit(**_JIT)
+def sincos(th, s, c):
+    """sin and cos of a 1-D float64 array into ``s`` and ``c`` (the kernel's own; for tests)."""
+    _sincos_row(th, s, c, th.shape[0])
+
+
+@nb.njit(**_JIT)
+def fk(Q, jint, jflt, order, lj, D, out, chunk):
+    """Poses of the requested links for every configuration.
+
+    Q: (N, dof) joint values. jint: (n, 3) int64 q_index, kind (0 revolute, 1 prismatic),
+    parent (-1 at the root). jflt: (n, 14) multiplier, offset, CZ_j[:3, :4]. order: joints to
+    compute, parents first. lj: (L',) frame each output hangs from (-1: constant pose).
+    D: (L', 4, 4) constant right factor (G_j^-1 M_L, or M_L when lj < 0; last row 0 0 0 1).
+    out: (N, L', 16) row-major poses, written. chunk: configurations per pass.
+    """
+    N = Q.shape[0]
+    n = jint.shape[0]
+    L = lj.shape[0]
+    w = chunk + ROW_PAD
+    F = np.empty((n, 12, w))
+    TH = np.empty((n, w))
+    S = np.empty((n, w))
+    C = np.empty((n, w))
+    for a in range(0, N, chunk):
+        m = min(chunk, N - a)
+        for jj in range(order.shape[0]):
+            j = order[jj]
+            col = jint[j, J_QINDEX]
+            mu = jflt[j, J_MULT]
+            off = jflt[j, J_OFFSET]
+            th = TH[j]
+            for i in range(m):
+                th[i] = Q[a + i, col] * mu + off
+            _sincos_row(th, S[j], C[j], m)
+        for jj in range(order.shape[0]):
+            j = order[jj]
+            _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], S[j], C[j], TH[j], m)
+        for i in range(m):
+            row = out[a + i]
+            for k in range(L):
+                o = row[k]
+                j = lj[k]
+                if j < 0:
+                    for e in range(16):
+                        o[e] = D[k, e // 4, e % 4]
+                    continue
+                Fj = F[j]
+                for r in range(3):
+                    f0 = Fj[4 * r, i]
+                    f1 = Fj[4 * r + 1, i]
+                    f2 = Fj[4 * r + 2, i]
+                    f3 = Fj[4 * r + 3, i]
+                    o[4 * r] = f0 * D[k, 0, 0] + f1 * D[k, 1, 0] + f2 * D[k, 2, 0]
+                    o[4 * r + 1] = f0 * D[k, 0, 1] + f1 * D[k, 1, 1] + f2 * D[k, 2, 1]
+                    o[4 * r + 2] = f0 * D[k, 0, 2] + f1 * D[k, 1, 2] + f2 * D[k, 2, 2]
+                    o[4 * r + 3] = f0 * D[k, 0, 3] + f1 * D[k, 1, 3] + f2 * D[k, 2, 3] + f3
+                o[12] = 0.0
+                o[13] = 0.0
+                o[14] = 0.0
+                o[15] = 1.0
+    return out
+
+
+@nb.njit(**_JIT)
+def _joint_frames(F, j, p, revolute, jf, s, c, th, m):
+    """``F[j] = F[p] · CZ_j · Z(θ)`` for ``m`` configurations (``F[p]`` = I when ``p < 0``)."""
+    Fj = F[j]
+    if p < 0:
+        for r in range(3):
+            x = jf[J_CZ + 4 * r]
+            y = jf[J_CZ + 4 * r + 1]
+            z = jf[J_CZ + 4 * r + 2]
+            t = jf[J_CZ + 4 * r + 3]
+            o0 = Fj[4 * r]
+            o1 = Fj[4 * r + 1]
+            o2 = Fj[4 * r + 2]
+            o3 = Fj[4 * r + 3]
+            for i in range(m):
+                if revolute:
+                    o0[i] = c[i] * x + s[i] * y
+                    o1[i] = c[i] * y - s[i] * x
+                    o3[i] = t
+                else:
+                    o0[i] = x
+                    o1[i] = y
+                    o3[i] = t + th[i] * z
+                o2[i] = z
+        return
+    Fp = F[p]
+    c00, c01, c02, c03 = jf[J_CZ], jf[J_CZ + 1], jf[J_CZ + 2], jf[J_CZ + 3]
+    c10, c11, c12, c13 = jf[J_CZ + 4], jf[J_CZ + 5], jf[J_CZ + 6], jf[J_CZ + 7]
+    c20, c21, c22, c23 = jf[J_CZ + 8], jf[J_CZ + 9], jf[J_CZ + 10], jf[J_CZ + 11]
+    for r in range(3):
+        p0 = Fp[4 * r]
+        p1 = Fp[4 * r + 1]
+        p2 = Fp[4 * r + 2]
+        p3 = Fp[4 * r + 3]
+        o0 = Fj[4 * r]
+        o1 = Fj[4 * r + 1]
+        o2 = Fj[4 * r + 2]
+        o3 = Fj[4 * r + 3]
+        if revolute:
+            for i in range(m):
+                a0 = p0[i]
+                a1 = p1[i]
+                a2 = p2[i]
+                x = a0 * c00 + a1 * c10 + a2 * c20
+                y = a0 * c01 + a1 * c11 + a2 * c21
+                o0[i] = c[i] * x + s[i] * y  # x' = c x + s y
+                o1[i] = c[i] * y - s[i] * x  # y' = c y - s x
+                o2[i] = a0 * c02 + a1 * c12 + a2 * c22
+                o3[i] = a0 * c03 + a1 * c13 + a2 * c23 + p3[i]
+        else:
+            for i in range(m):
+                a0 = p0[i]
+                a1 = p1[i]
+                a2 = p2[i]
+                z = a0 * c02 + a1 * c12 + a2 * c22
+                o0[i] = a0 * c00 + a1 * c10 + a2 * c20
+                o1[i] = a0 * c01 + a1 * c11 + a2 * c21
+                o2[i] = z
+                o3[i] = a0 * c03 + a1 * c13 + a2 * c23 + p3[i] + th[i] * z  # t' = t + θ z
