@@ -9,7 +9,7 @@ import pinocchio as pin
 from kinematics import compile_model
 from kinematics.catalogue import default_catalogue
 from kinematics.crosscheck import reference_for
-from kinematics.kernels import aligned_empty
+from kinematics.buffers import aligned_empty
 
 from .common import ROBOTS, Report, configurations, measure, table, tool_link, us
 

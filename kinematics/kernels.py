@@ -45,7 +45,8 @@ Memory is ``O(path length · chunk)`` whatever N. Batches of at most ``SMALL_BAT
 configurations take a path with few numpy calls: all factors ``CZ_j Z(θ_j)`` in one
 product, then the prefix products by pointer jumping (``_frames_small``).
 
-FK results of at least ``ALIGN_MIN_ELEMENTS`` values start on a cache-line boundary.
+FK results come from :func:`kinematics.buffers.result_array`: aligned to a cache line, and
+large ones recycled (see that module).
 
 Example (the reference and the kernels agree)::
 
@@ -59,13 +60,13 @@ Example (the reference and the kernels agree)::
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import compiled
+from .buffers import aligned_empty, result_array
 
 if TYPE_CHECKING:  # pragma: no cover
     from .poe import PoEModel
@@ -77,10 +78,6 @@ CHUNK_SIZE = 2048
 SINCOS_BLOCK = 16384
 #: Batches up to this size take the small-batch path (few numpy calls, batched 4x4 products).
 SMALL_BATCH = 16
-#: Bytes of a cache line: results and frame buffers start on such a boundary.
-CACHE_LINE = 64
-#: Arrays with fewer elements than this are not aligned beyond numpy's 16 bytes.
-ALIGN_MIN_ELEMENTS = 4096
 #: Visiting plans (per list of requested links) kept per model.
 PLAN_CACHE_SIZE = 256
 #: Largest |θ| for which the polynomial sine/cosine is used (exact reduction below 2^20 · π/2).
@@ -194,20 +191,6 @@ def sincos_scratch(size: int) -> tuple[np.ndarray, np.ndarray]:
 #: small Jacobian batches: one batched 4x4 product per joint is preferred while there are at
 #: most this many per pointer-jumping product it replaces
 SEQUENTIAL_CALLS_PER_JUMP = 3
-
-
-def aligned_empty(shape: tuple[int, ...], align: int = CACHE_LINE) -> np.ndarray:
-    """An uninitialised C-contiguous float64 array whose data starts on an ``align``-byte boundary.
-
-    numpy's allocations are 16-byte aligned; a 4x4 pose (128 bytes) then straddles three cache
-    lines instead of two, and the per-link writes of the kernels touch each boundary line twice.
-    """
-    n = math.prod(shape)
-    if n < ALIGN_MIN_ELEMENTS:  # small: not worth the extra call (~2 µs)
-        return np.empty(shape)
-    raw = np.empty(n + align // 8)
-    start = (-raw.ctypes.data % align) // 8
-    return raw[start:start + n].reshape(shape)
 
 
 # --- compiled kernel ------------------------------------------------------------------------
@@ -410,7 +393,7 @@ class Kernel:
         plan = self._plan_all if link_idx is None else self.plan(link_idx)
         n_out = plan.lj.shape[0]
         if out is None:
-            out = aligned_empty((N, n_out, 4, 4))
+            out = result_array((N, n_out, 4, 4))
         if N:
             Q = np.ascontiguousarray(Q, dtype=np.float64)
             compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, plan.pose, out.reshape(N, n_out, 16),

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from kinematics import compile_model, parse_urdf
-from kinematics import compiled, kernels
+from kinematics import buffers, compiled, kernels
 from kinematics.errors import KinematicsError, UnknownLinkError
 from kinematics.kernels import SMALL_BATCH, sincos
 from kinematics.poe import REFERENCES
@@ -230,11 +230,50 @@ def test_results_are_cache_line_aligned(catalogue):
     poe = compile_model(model)
     for n in (100, 1000):  # results of at least ALIGN_MIN_ELEMENTS values
         T = poe.fk(model.sample_configurations(n, np.random.default_rng(n)))
-        assert T.ctypes.data % kernels.CACHE_LINE == 0 and T.flags.c_contiguous and T.dtype == np.float64
-    A = kernels.aligned_empty((30, 50, 7))
-    assert A.shape == (30, 50, 7) and A.ctypes.data % kernels.CACHE_LINE == 0 and A.flags.c_contiguous
-    small = kernels.aligned_empty((3, 5, 7))  # below ALIGN_MIN_ELEMENTS: numpy's own alignment
+        assert T.ctypes.data % buffers.CACHE_LINE == 0 and T.flags.c_contiguous and T.dtype == np.float64
+    A = buffers.aligned_empty((30, 50, 7))
+    assert A.shape == (30, 50, 7) and A.ctypes.data % buffers.CACHE_LINE == 0 and A.flags.c_contiguous
+    small = buffers.aligned_empty((3, 5, 7))  # below ALIGN_MIN_ELEMENTS: numpy's own alignment
     assert small.shape == (3, 5, 7) and small.flags.c_contiguous
+
+
+def test_large_results_are_recycled_only_when_unreferenced(catalogue):
+    """Results of POOL_MIN_BYTES or more come from the pool of recycled buffers: a buffer is
+    reused only after the result and every view of it are gone, never while one is alive."""
+    model = catalogue.get("talos_reduced")
+    poe = compile_model(model)
+    L = len(poe.link_names)
+    n = buffers.POOL_MIN_BYTES // (L * 128) + 1  # just above the pooling size
+    rng = np.random.default_rng(5)
+    Q1, Q2 = model.sample_configurations(n, rng), model.sample_configurations(n, rng)
+    buffers.POOL.clear()
+    T1 = poe.fk(Q1)
+    assert isinstance(T1.base, buffers._Lease) and T1.ctypes.data % buffers.CACHE_LINE == 0
+    ptr1 = T1.ctypes.data
+    expected1 = poe.fk_reference(Q1[-5:])
+    view = T1[-5:]  # a view alone keeps the buffer
+    del T1
+    T2 = poe.fk(Q2)
+    assert T2.ctypes.data != ptr1  # still in use by `view`
+    _assert_close(view, expected1, "a view after a later call")
+    del view
+    T3 = poe.fk(Q1)  # the first buffer is free again: reused, and filled with new poses
+    assert T3.ctypes.data == ptr1
+    _assert_close(T3[:7], poe.fk_reference(Q1[:7]), "a recycled buffer")
+    _assert_close(T2[:7], poe.fk_reference(Q2[:7]), "the other result")
+    del T2, T3
+    assert buffers.POOL.held <= buffers.POOL_BYTES
+    buffers.POOL.clear()
+
+
+def test_pool_keeps_at_most_its_limit():
+    pool = buffers._Pool(limit=3 * 8 * 1000)
+    held = [pool.take(1000) for _ in range(5)]
+    for a in held:
+        pool.give_back(a)
+    assert pool.held == 3 * 8 * 1000 and len(pool.free[1000]) == 3
+    assert pool.take(1000) is held[2] and pool.held == 2 * 8 * 1000
+    assert pool.take(999) is not None and pool.allocated == 6
 
 
 def test_sincos_matches_numpy():
