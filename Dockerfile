@@ -55,12 +55,13 @@ RUN --mount=type=cache,target=/root/.cache/pip \
 # What the service never reads, removed from the venv (~600 MB): the meshes of the
 # example-robot-data URDFs (the service never opens files a URDF names; the URDFs and
 # SRDFs stay), C++ headers, CMake files and static libraries of the Pinocchio wheels,
-# and the packaging tools.
+# numba's and llvmlite's own test suites, and the packaging tools.
 RUN cd /opt/venv/lib/python3*/site-packages/cmeel.prefix \
     && rm -rf include share/cmake share/doc lib/cmake lib/pkgconfig lib64/cmake lib64/pkgconfig \
     && find . -name '*.a' -delete \
     && find share/example-robot-data -type f \( -iname '*.stl' -o -iname '*.dae' -o -iname '*.obj' \
-         -o -iname '*.mtl' -o -iname '*.ply' -o -iname '*.png' -o -iname '*.jpg' \) -delete
+         -o -iname '*.mtl' -o -iname '*.ply' -o -iname '*.png' -o -iname '*.jpg' \) -delete \
+    && rm -rf ../numba/tests ../llvmlite/tests
 # yourdfpy pulls in trimesh[easy]: mesh processing libraries (scipy, embree, pillow, shapely,
 # ...; ~250 MB) that trimesh imports only to load or process meshes, which this service
 # never does. The build checks below (parity of the catalogue with Pinocchio) prove the
@@ -72,7 +73,7 @@ COPY app ./app
 RUN --mount=type=cache,target=/root/.cache/pip \
     pip install -q --no-deps --no-build-isolation . \
     && python -c 'import kinematics, app.main; print("kinematics", kinematics.__version__)' \
-    && kinematics check --samples 1 | tail -1 \
+    && NUMBA_CACHE_DIR=/tmp/numba-build kinematics check --samples 1 | tail -1 \
     && pip uninstall -y -q pip setuptools wheel \
     && rm -rf /src
 
@@ -93,6 +94,9 @@ ENV PATH=/opt/venv/bin:$PATH \
 VOLUME ["/data"]
 WORKDIR /home/kin
 USER kin
+# Compile the numba FK kernel now, into the user's cache (~/.cache/numba), so that the server
+# starts in about a second; on a machine with another CPU, numba compiles it again at start.
+RUN python -c 'import kinematics; kinematics.warm_up()'
 EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=20s --retries=3 \
     CMD ["python", "-c", "import os, sys, urllib.request; r = urllib.request.urlopen('http://127.0.0.1:%s/health' % os.environ.get('PORT', '8000'), timeout=4); sys.exit(r.status != 200)"]

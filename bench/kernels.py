@@ -59,12 +59,14 @@ def fk_batch(report: Report, robots=ROBOTS, n: int = 10_000, rounds: int = 25) -
         f"FK of all links, batch of {n:,} configurations (µs per configuration)",
         table(["robot", "dof", "links", "Pinocchio frames", "N", "ours", "ours, out= buffer", "Pinocchio loop",
                "ratio", "ratio (out=)", "a new result-sized array, filled (ratio)", f"≤ {FK_TARGET}?"], rows),
-        "ours: `compile_model(model).fk(Q)` (returns a new (N, L, 4, 4) array); *out= buffer*: the same "
-        "call writing into a reused array (`fk(Q, out=buf)`), i.e. without the cost of fresh memory for the result. "
+        "ours: `compile_model(model).fk(Q)` (returns a new (N, L, 4, 4) array; one of 32 MiB or more "
+        "reuses a buffer of an earlier result that is gone, see `kinematics/buffers.py`); *out= buffer*: "
+        "the same call writing into an array the caller reuses (`fk(Q, out=buf)`). "
         "Pinocchio: `forwardKinematics` + `updateFramePlacements` looped from Python over the same "
         "configurations (already converted to Pinocchio's q), results left in `data.oMf`. The last column "
         "but one: `np.ones` of the result's shape alone (allocation, first-touch page faults and one write "
-        "pass, no kinematics): a floor under any function returning a new array of that size.",
+        "pass, no kinematics): what a newly mapped array of that size costs (glibc maps anything above "
+        "32 MiB afresh on every call; Talos's 77 MiB result would pay it without the pool).",
     )
     return results
 
