@@ -201,3 +201,92 @@ def _joint_frames(F, j, p, revolute, jf, s, c, th, m):
                 o1[i] = a0 * c01 + a1 * c11 + a2 * c21
                 o2[i] = z
                 o3[i] = a0 * c03 + a1 * c13 + a2 * c23 + p3[i] + th[i] * z  # t' = t + θ z
+
+
+#: Jacobian references (codes of the compiled kernel)
+REF_WORLD, REF_LOCAL_WORLD_ALIGNED, REF_LOCAL = 0, 1, 2
+
+
+@nb.njit(**_JIT)
+def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
+    """Jacobians (N, 6, dof), linear rows first, of the link whose pose is ``F_last · D``.
+
+    path: (k,) the moving joints from the root to the link (a chain, root first); D: (4, 4)
+    the link's constant factor ``G_last^-1 M_L``; ref: REF_WORLD (twist at the world
+    origin, world axes), REF_LOCAL_WORLD_ALIGNED (velocity of the link origin, world axes)
+    or REF_LOCAL (the same in the link's axes). J must be zeros: each joint's column is
+    *added* to its q column, times its multiplier (mimic joints share their leader's).
+    """
+    N = Q.shape[0]
+    n = jint.shape[0]
+    k = path.shape[0]
+    w = chunk + ROW_PAD
+    F = np.empty((n, 12, w))
+    TH = np.empty((n, w))
+    S = np.empty((n, w))
+    C = np.empty((n, w))
+    if k == 0:
+        return J
+    last = path[k - 1]
+    for a in range(0, N, chunk):
+        m = min(chunk, N - a)
+        for jj in range(k):
+            j = path[jj]
+            col = jint[j, J_QINDEX]
+            mu = jflt[j, J_MULT]
+            off = jflt[j, J_OFFSET]
+            th = TH[j]
+            for i in range(m):
+                th[i] = Q[a + i, col] * mu + off
+            _sincos_row(th, S[j], C[j], m)
+            _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], S[j], C[j], TH[j], m)
+        Fl = F[last]
+        for i in range(m):
+            Ji = J[a + i]
+            # the link's origin o and rotation R = R_world_L (F_last · D)
+            ox = oy = oz = 0.0
+            if ref != REF_WORLD:
+                ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
+                oy = Fl[4, i] * D[0, 3] + Fl[5, i] * D[1, 3] + Fl[6, i] * D[2, 3] + Fl[7, i]
+                oz = Fl[8, i] * D[0, 3] + Fl[9, i] * D[1, 3] + Fl[10, i] * D[2, 3] + Fl[11, i]
+            r00 = r01 = r02 = r10 = r11 = r12 = r20 = r21 = r22 = 0.0
+            if ref == REF_LOCAL:
+                f00, f01, f02 = Fl[0, i], Fl[1, i], Fl[2, i]
+                f10, f11, f12 = Fl[4, i], Fl[5, i], Fl[6, i]
+                f20, f21, f22 = Fl[8, i], Fl[9, i], Fl[10, i]
+                r00 = f00 * D[0, 0] + f01 * D[1, 0] + f02 * D[2, 0]
+                r01 = f00 * D[0, 1] + f01 * D[1, 1] + f02 * D[2, 1]
+                r02 = f00 * D[0, 2] + f01 * D[1, 2] + f02 * D[2, 2]
+                r10 = f10 * D[0, 0] + f11 * D[1, 0] + f12 * D[2, 0]
+                r11 = f10 * D[0, 1] + f11 * D[1, 1] + f12 * D[2, 1]
+                r12 = f10 * D[0, 2] + f11 * D[1, 2] + f12 * D[2, 2]
+                r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
+                r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
+                r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
+            for jj in range(k):
+                j = path[jj]
+                Fj = F[j]
+                wx, wy, wz = Fj[2, i], Fj[6, i], Fj[10, i]  # the joint axis, world
+                if jint[j, J_KIND] == 0:  # revolute: (ω × (o - p), ω), p a point on the axis
+                    dx, dy, dz = ox - Fj[3, i], oy - Fj[7, i], oz - Fj[11, i]
+                    vx = wy * dz - wz * dy
+                    vy = wz * dx - wx * dz
+                    vz = wx * dy - wy * dx
+                    ax, ay, az = wx, wy, wz
+                else:  # prismatic: (axis, 0)
+                    vx, vy, vz = wx, wy, wz
+                    ax = ay = az = 0.0
+                if ref == REF_LOCAL:  # R^T v: component c = (column c of R) · v
+                    vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
+                                  r02 * vx + r12 * vy + r22 * vz)
+                    ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
+                                  r02 * ax + r12 * ay + r22 * az)
+                col = jint[j, J_QINDEX]
+                mu = jflt[j, J_MULT]
+                Ji[0, col] += mu * vx
+                Ji[1, col] += mu * vy
+                Ji[2, col] += mu * vz
+                Ji[3, col] += mu * ax
+                Ji[4, col] += mu * ay
+                Ji[5, col] += mu * az
+    return J

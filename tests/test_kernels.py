@@ -16,14 +16,14 @@ import pytest
 from kinematics import compile_model, parse_urdf
 from kinematics import buffers, compiled, kernels
 from kinematics.errors import KinematicsError, UnknownLinkError
-from kinematics.kernels import SMALL_BATCH, sincos
 from kinematics.poe import REFERENCES
 
 #: Largest entry-wise difference allowed between the kernels and the reference.
 KERNEL_TOLERANCE = 1e-12
-#: Configurations per model in the catalogue-wide check: above SMALL_BATCH (batched path)...
-BATCH_N = SMALL_BATCH + 9
-#: ... and within it (small-batch path).
+#: Configurations per model in the catalogue-wide check (the kernels' vectorised loops and
+#: their scalar remainders)...
+BATCH_N = 25
+#: ... and a few.
 SMALL_N = 3
 
 
@@ -81,22 +81,20 @@ def test_chunk_boundaries(catalogue, model_id):
             _assert_close(poe.kernel.jacobian(Q, li, reference, chunk=chunk), ref_j, f"{model_id} J chunk={chunk}")
 
 
-def test_small_and_batched_paths_agree(catalogue):
-    """The small-batch path (N <= SMALL_BATCH) and the chunked path give the same numbers."""
-    model = catalogue.get("panda")  # mimic finger joint
-    poe = compile_model(model)
-    Q = model.sample_configurations(SMALL_BATCH + 1, np.random.default_rng(3))
-    batched = poe.fk(Q)
-    small = np.concatenate([poe.fk(Q[i:i + 1]) for i in range(Q.shape[0])])
-    _assert_close(small, batched, "small vs batched")
-    _assert_close(batched, poe.fk_reference(Q), "batched vs reference")
-    # one configuration equals its row of a small batch bit for bit (the API's single and batch answers)
-    for model_id in ("ur5", "panda"):
-        poe = compile_model(catalogue.get(model_id))
-        Qs = catalogue.get(model_id).sample_configurations(SMALL_BATCH, np.random.default_rng(4))
-        few = poe.fk(Qs)
-        for i in range(SMALL_BATCH):
-            np.testing.assert_array_equal(poe.fk(Qs[i:i + 1]), few[i:i + 1])
+def test_single_configurations_equal_their_batch_rows(catalogue):
+    """A configuration alone gives its row of a batch bit for bit (the API's single and batch
+    answers agree exactly): no fast-math, so the vectorised loop and its scalar remainder agree."""
+    for model_id in ("ur5", "panda", "talos_reduced"):  # panda: a mimic finger and a prismatic joint
+        model = catalogue.get(model_id)
+        poe = compile_model(model)
+        Q = model.sample_configurations(37, np.random.default_rng(4))
+        batch = poe.fk(Q)
+        _assert_close(batch, poe.fk_reference(Q), f"{model_id} batch vs reference")
+        leaf = model.leaf_links[-1]
+        jb = poe.jacobian(Q, leaf, "local")
+        for i in range(Q.shape[0]):
+            np.testing.assert_array_equal(poe.fk(Q[i:i + 1]), batch[i:i + 1])
+            np.testing.assert_array_equal(poe.jacobian(Q[i:i + 1], leaf, "local"), jb[i:i + 1])
 
 
 def test_n_zero_and_one(catalogue):
@@ -145,7 +143,7 @@ def test_planar_2r_closed_form():
     model = load_urdf(Path(__file__).parent / "fixtures" / "planar_2r.urdf")
     poe = compile_model(model)
     l1, l2 = 0.7, 0.5
-    Q = model.sample_configurations(SMALL_BATCH + 21, np.random.default_rng(9))
+    Q = model.sample_configurations(37, np.random.default_rng(9))
     for Qn in (Q, Q[:1]):  # batched and small paths
         T = poe.fk(Qn, ["tool"])[:, 0]
         q1, q2 = Qn[:, 0], Qn[:, 1]
@@ -274,27 +272,6 @@ def test_pool_keeps_at_most_its_limit():
     assert pool.held == 3 * 8 * 1000 and len(pool.free[1000]) == 3
     assert pool.take(1000) is held[2] and pool.held == 2 * 8 * 1000
     assert pool.take(999) is not None and pool.allocated == 6
-
-
-def test_sincos_matches_numpy():
-    rng = np.random.default_rng(0)
-    th = np.concatenate([rng.uniform(-7, 7, 5000), rng.uniform(-1e6, 1e6, 5000),
-                         [0.0, -0.0, np.pi / 4, -np.pi / 4, np.pi / 2, np.pi, 3 * np.pi / 2, 1e-300, 7.5e5]])
-    s, c = sincos(th)
-    np.testing.assert_allclose(s, np.sin(th), rtol=0, atol=4e-16)
-    np.testing.assert_allclose(c, np.cos(th), rtol=0, atol=4e-16)
-    # beyond the reduction's exact range (and non-finite values): numpy's functions
-    big = np.array([3e6, -1e12, 0.5])
-    s, c = sincos(big)
-    np.testing.assert_array_equal(s, np.sin(big))
-    np.testing.assert_array_equal(c, np.cos(big))
-    s, c = sincos(np.array([np.nan, 1.0]))
-    assert np.isnan(s[0]) and s[1] == np.sin(1.0)
-    # blocks: more elements than one block
-    th = rng.uniform(-10, 10, kernels.SINCOS_BLOCK * 2 + 3)
-    s, c = sincos(th)
-    np.testing.assert_allclose(s, np.sin(th), rtol=0, atol=4e-16)
-    np.testing.assert_allclose(c, np.cos(th), rtol=0, atol=4e-16)
 
 
 def test_compiled_sincos_matches_numpy():
