@@ -1,28 +1,34 @@
-"""Compiled (numba) forward kinematics: the axis-frame product of :mod:`kinematics.kernels`,
-one pass per chunk of configurations with every intermediate in registers or L1/L2.
+"""Compiled (numba) kernels: forward kinematics and Jacobians over batches, one pass per
+chunk of configurations with every intermediate in registers or cache.
 
-The numpy kernels of :mod:`kinematics.kernels` cost a few large array operations per joint
-and per link; what bounds them is memory traffic (every operation reads and writes whole
-``(13, chunk)`` rows, and the poses go through a BLAS product into the result). This
-module computes the same products,
+They compute the axis-frame products of :mod:`kinematics.kernels` (which precomputes
+their constants),
 
     F_j = F_parent(j) · CZ_j · Z(θ_j)           T_world_L = F_j · D_L
 
-(see :mod:`kinematics.kernels` for the regrouping), with loops that LLVM vectorises over
-the configurations of a chunk, and writes each pose once, straight into the result.
+with loops that LLVM vectorises over the configurations of a chunk, and write each pose
+or Jacobian column once, straight into the result. (numpy code of the same products, a
+few large array operations per joint, was bounded by memory traffic: every operation read
+and wrote whole rows of the chunk; it reached 0.6-1.1x Pinocchio's loop for FK, these
+loops 0.2-0.4x.)
 
 - Joint values: ``θ_j = multiplier_j · q[q_index_j] + offset_j`` (mimic joints), then sine
-  and cosine by the same fdlibm polynomials as :func:`kinematics.kernels.sincos` (exact
-  Cody-Waite reduction for ``|θ| <= SINCOS_MAX_ARG``; larger or non-finite values use libm).
+  and cosine by fdlibm's polynomials with an exact Cody-Waite reduction for
+  ``|θ| <= SINCOS_MAX_ARG`` (larger or non-finite values: libm), within an ulp of libm.
 - Frames: structure of arrays ``F[j, 12, chunk]`` (row ``4r + c`` holds ``F[r, c]``), the
   rows padded so that they are not 4 KiB apart (rows exactly 4 KiB apart alias in L1 and
   cost 2x here).
-- Poses: configuration by configuration, every requested link's 4x4 written contiguously.
+- FK: configuration by configuration, every requested link's 4x4 written contiguously.
+- Jacobians: the frames of the link's path, then per configuration each joint's column
+  ``(ω × (o - p), ω)`` (revolute) or ``(axis, 0)`` (prismatic), rotated into the link's
+  axes for ``local``, added to its q column times its multiplier.
 
 No fast-math: LLVM does not contract or reassociate, so the vectorised body and its
 scalar remainder give the same bits, and a single configuration equals its row of a batch.
 Functions are compiled on first use and cached on disk (``cache=True``; numba keeps the
-cache next to this file, or in ``NUMBA_CACHE_DIR``).
+cache next to this file when it can write there, else in ``~/.cache/numba``, or in
+``NUMBA_CACHE_DIR``): the first run on a machine takes a few seconds, later processes
+load the cache in well under a second (:func:`kinematics.warm_up` does it at server start).
 """
 
 from __future__ import annotations
