@@ -296,3 +296,45 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
                 Ji[4, col] += mu * ay
                 Ji[5, col] += mu * az
     return J
+
+
+@nb.njit(**_JIT)
+def quaternions(R, out):
+    """Unit quaternions ``(w, x, y, z)``, w >= 0, of rotations R (M, 3, 3) into out (M, 4).
+
+    Shepperd's method: the largest of trace, R00, R11, R22 (the first on ties) picks the
+    formula, so the square root is of a number at least 1 (well conditioned).
+    """
+    for i in range(R.shape[0]):
+        m00, m01, m02 = R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]
+        m10, m11, m12 = R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]
+        m20, m21, m22 = R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]
+        trace = m00 + m11 + m22
+        k = 0
+        best = trace
+        if m00 > best:
+            k, best = 1, m00
+        if m11 > best:
+            k, best = 2, m11
+        if m22 > best:
+            k = 3
+        if k == 0:
+            s = math.sqrt(max(1.0 + trace, 0.0)) * 2.0
+            w, x, y, z = 0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s
+        elif k == 1:
+            s = math.sqrt(max(1.0 + m00 - m11 - m22, 0.0)) * 2.0
+            w, x, y, z = (m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s
+        elif k == 2:
+            s = math.sqrt(max(1.0 + m11 - m22 - m00, 0.0)) * 2.0
+            w, x, y, z = (m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s
+        else:
+            s = math.sqrt(max(1.0 + m22 - m00 - m11, 0.0)) * 2.0
+            w, x, y, z = (m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s
+        if w < 0.0:
+            w, x, y, z = -w, -x, -y, -z
+        norm = math.sqrt(w * w + x * x + y * y + z * z)
+        out[i, 0] = w / norm
+        out[i, 1] = x / norm
+        out[i, 2] = y / norm
+        out[i, 3] = z / norm
+    return out

@@ -276,3 +276,22 @@ def test_bad_base_pose_is_422_naming_it(api_client, base, needle):
     r = api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "base": {"xyz": [0, 0], "rpy": [0, 0, 0]}})
     assert r.status_code == 422  # pydantic or the library: either way a problem naming base
     assert "base" in r.text
+
+
+def test_small_requests_on_the_loop_and_large_in_the_pool_answer_alike(api_client, ur5):
+    """Requests of at most INLINE_MAX_CONFIGURATIONS configurations are answered on the event
+    loop, larger ones in the thread pool: the same numbers and the same errors either way."""
+    from app.routes.kinematics import INLINE_MAX_CONFIGURATIONS
+
+    poe = compile_model(ur5)
+    Q = ur5.sample_configurations(INLINE_MAX_CONFIGURATIONS + 1, np.random.default_rng(21))
+    for rows in (Q[:INLINE_MAX_CONFIGURATIONS], Q):
+        r = api_client.post("/models/ur5/fk", json={"q": rows.tolist(), "links": "all", "format": "matrix"})
+        assert r.status_code == 200, r.text
+        got = np.array([[c[link] for link in ur5.links] for c in r.json()["poses"]])
+        np.testing.assert_allclose(got, poe.fk(rows), atol=1e-12, rtol=0)
+        r = api_client.post("/models/ur5/jacobian", json={"q": rows.tolist(), "link": "tool0", "reference": "local"})
+        assert r.status_code == 200, r.text
+        np.testing.assert_allclose(np.array(r.json()["jacobian"]), poe.jacobian(rows, "tool0", "local"), atol=1e-12, rtol=0)
+        r = api_client.post("/models/ur5/fk", json={"q": rows.tolist(), "links": ["no_such_link"]})
+        assert r.status_code == 404 and "no_such_link" in r.json()["detail"]
