@@ -218,6 +218,24 @@ def test_pose_components_round_trip(rng):
     np.testing.assert_allclose(R_rpy, R, atol=1e-12)
 
 
+def test_quaternions_every_branch_and_half_turns(rng):
+    """matrix_to_quaternion (compiled Shepperd) takes each of its four branches (trace, then the
+    largest diagonal entry) and the half turns about x, y, z and a diagonal; scipy agrees."""
+    from scipy.spatial.transform import Rotation
+
+    from kinematics.transforms import matrix_to_quaternion
+
+    half_turns = Rotation.from_rotvec(np.pi * np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0] / np.sqrt(2)]))
+    rots = Rotation.concatenate([Rotation.identity(), half_turns, Rotation.random(200, random_state=3)])
+    R = rots.as_matrix()
+    q = matrix_to_quaternion(R)
+    assert q.shape == (len(R), 4) and np.all(q[:, 0] >= 0)
+    np.testing.assert_allclose(Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix(), R, atol=1e-14)
+    branches = np.argmax(np.stack([np.trace(R, axis1=1, axis2=2), R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1), axis=1)
+    assert set(branches.tolist()) == {0, 1, 2, 3}
+    np.testing.assert_array_equal(matrix_to_quaternion(R.reshape(5, 41, 3, 3)).reshape(-1, 4), q)  # any batch shape
+
+
 def test_conditioning_measures():
     J = np.zeros((6, 6))
     J[np.arange(6), np.arange(6)] = [3, 2, 1, 1, 0.5, 0.25]
