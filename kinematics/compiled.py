@@ -91,6 +91,29 @@ def sincos(th, s, c):
 
 
 @nb.njit(**_JIT)
+def _scratch(n, chunk):
+    """Frames F (n, 12, w) and joint values, sines, cosines W (3, n, w) of one chunk (padded rows)."""
+    w = chunk + ROW_PAD
+    return np.empty((n, 12, w)), np.empty((3, n, w))
+
+
+@nb.njit(**_JIT)
+def _chunk_frames(Q, a, m, joints, jint, jflt, F, W):
+    """θ, sin θ, cos θ and the axis frame of each of ``joints`` (parents first) for
+    configurations ``a .. a + m`` of Q."""
+    for jj in range(joints.shape[0]):
+        j = joints[jj]
+        col = jint[j, J_QINDEX]
+        mu = jflt[j, J_MULT]
+        off = jflt[j, J_OFFSET]
+        th, s, c = W[0, j], W[1, j], W[2, j]
+        for i in range(m):
+            th[i] = Q[a + i, col] * mu + off
+        _sincos_row(th, s, c, m)
+        _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], s, c, th, m)
+
+
+@nb.njit(**_JIT)
 def fk(Q, jint, jflt, order, lj, D, out, chunk):
     """Poses of the requested links for every configuration.
 
@@ -101,27 +124,11 @@ def fk(Q, jint, jflt, order, lj, D, out, chunk):
     out: (N, L', 16) row-major poses, written. chunk: configurations per pass.
     """
     N = Q.shape[0]
-    n = jint.shape[0]
     L = lj.shape[0]
-    w = chunk + ROW_PAD
-    F = np.empty((n, 12, w))
-    TH = np.empty((n, w))
-    S = np.empty((n, w))
-    C = np.empty((n, w))
+    F, W = _scratch(jint.shape[0], chunk)
     for a in range(0, N, chunk):
         m = min(chunk, N - a)
-        for jj in range(order.shape[0]):
-            j = order[jj]
-            col = jint[j, J_QINDEX]
-            mu = jflt[j, J_MULT]
-            off = jflt[j, J_OFFSET]
-            th = TH[j]
-            for i in range(m):
-                th[i] = Q[a + i, col] * mu + off
-            _sincos_row(th, S[j], C[j], m)
-        for jj in range(order.shape[0]):
-            j = order[jj]
-            _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], S[j], C[j], TH[j], m)
+        _chunk_frames(Q, a, m, order, jint, jflt, F, W)
         for i in range(m):
             row = out[a + i]
             for k in range(L):
@@ -224,28 +231,14 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
     *added* to its q column, times its multiplier (mimic joints share their leader's).
     """
     N = Q.shape[0]
-    n = jint.shape[0]
     k = path.shape[0]
-    w = chunk + ROW_PAD
-    F = np.empty((n, 12, w))
-    TH = np.empty((n, w))
-    S = np.empty((n, w))
-    C = np.empty((n, w))
     if k == 0:
         return J
+    F, W = _scratch(jint.shape[0], chunk)
     last = path[k - 1]
     for a in range(0, N, chunk):
         m = min(chunk, N - a)
-        for jj in range(k):
-            j = path[jj]
-            col = jint[j, J_QINDEX]
-            mu = jflt[j, J_MULT]
-            off = jflt[j, J_OFFSET]
-            th = TH[j]
-            for i in range(m):
-                th[i] = Q[a + i, col] * mu + off
-            _sincos_row(th, S[j], C[j], m)
-            _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], S[j], C[j], TH[j], m)
+        _chunk_frames(Q, a, m, path, jint, jflt, F, W)
         Fl = F[last]
         for i in range(m):
             Ji = J[a + i]
