@@ -288,12 +288,14 @@ _WARM_UP_URDF = """<robot name="warm_up">
 
 
 def warm_up() -> None:
-    """Import the URDF parser stack and load the compiled FK kernel now (compiling it on the
-    first run on a machine, a few seconds; then from numba's disk cache), so that a server's
-    first request does not pay for either."""
+    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, rotation
+    to quaternion; compiling them on the first run on a machine, a few seconds, then from
+    numba's disk cache), so that a server's first request does not pay for either."""
     from .urdf import parse_urdf
+
+    from .measures import pose_components
 
     model = parse_urdf(_WARM_UP_URDF)
     poe = compile_model(model)
-    poe.fk(np.zeros((1, model.dof)))
+    pose_components(poe.fk(np.zeros((1, model.dof))))  # FK, and rotation -> quaternion
     poe.jacobian(np.zeros((1, model.dof)), "arm")

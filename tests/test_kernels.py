@@ -303,3 +303,16 @@ def test_axis_frames_are_rotations_on_the_axis(catalogue):
     np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-15)
     np.testing.assert_allclose(R[:, :, 2], poe.w / np.linalg.norm(poe.w, axis=1)[:, None], atol=1e-15)
     np.testing.assert_allclose(G[:, :3, 3], poe.r, atol=0)
+
+
+def test_warm_up_loads_every_compiled_kernel_a_request_uses():
+    """kinematics.warm_up() (run at server start and in the Docker build) leaves FK, the
+    Jacobian and rotation -> quaternion compiled in a new process: the first request
+    compiles nothing (it took 0.5 s in the container when the quaternion was left out)."""
+    import subprocess
+    import sys
+
+    code = ("import kinematics; kinematics.warm_up(); from kinematics import compiled; "
+            "print(*(len(f.signatures) for f in (compiled.fk, compiled.jacobian, compiled.quaternions)))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
+    assert all(int(x) >= 1 for x in out.stdout.split()), out.stdout
