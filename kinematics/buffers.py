@@ -63,7 +63,9 @@ class _Pool:
         self.limit = limit
         self.held = 0
         self.free: dict[int, list[np.ndarray]] = {}
-        self.lock = threading.Lock()
+        # re-entrant: a lease's finalizer (give_back) may run inside take() or give_back() when
+        # an allocation there sets off the cyclic garbage collector
+        self.lock = threading.RLock()
         self.reused = 0  # statistics (tests, benchmarks)
         self.allocated = 0
 
