@@ -274,6 +274,25 @@ def test_pool_keeps_at_most_its_limit():
     assert pool.take(999) is not None and pool.allocated == 6
 
 
+def test_pool_survives_a_finalizer_inside_its_own_critical_section():
+    """The cyclic GC may run a lease's finalizer (give_back) while this thread is inside take()
+    or give_back(): the pool's lock must be re-entrant, or that thread deadlocks."""
+    import threading
+
+    pool = buffers._Pool(limit=1 << 20)
+    done = []
+
+    def inside():
+        with pool.lock:  # as if take() were running when the finalizer fired
+            pool.give_back(np.empty(10))
+            done.append(pool.take(10).size)
+
+    t = threading.Thread(target=inside, daemon=True)
+    t.start()
+    t.join(timeout=10)
+    assert done == [10], "the pool deadlocked"
+
+
 def test_compiled_sincos_matches_numpy():
     """The compiled kernel's own sine/cosine (kinematics.compiled): within 4e-16 of numpy's, and
     numpy's (libm's) values beyond the exactly reduced range and for non-finite arguments."""
