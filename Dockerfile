@@ -94,8 +94,8 @@ ENV PATH=/opt/venv/bin:$PATH \
 VOLUME ["/data"]
 WORKDIR /home/kin
 USER kin
-# Compile the numba FK kernel now, into the user's cache (~/.cache/numba), so that the server
-# starts in about a second; on a machine with another CPU, numba compiles it again at start.
+# Compile the numba kernels now, into the user's cache (~/.cache/numba), so that the server
+# starts in about a second; on a machine with another CPU, numba compiles them again at start.
 RUN python -c 'import kinematics; kinematics.warm_up()'
 EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=20s --retries=3 \

@@ -33,7 +33,6 @@ log = logging.getLogger("app")
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
 ROUTERS = ("health", "models", "kinematics", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
-#: parsed at start-up so that the parser's imports (yourdfpy, trimesh: ~1 s) are not paid by a request
 DESCRIPTION = """Forward kinematics and Jacobians of robots (URDF or Denavit-Hartenberg), computed with
 product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
 

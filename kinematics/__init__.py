@@ -1,6 +1,6 @@
 """Kinematics library: URDF and DH robot models, product-of-exponentials FK and Jacobians.
 
-Python, numpy and one numba-compiled kernel; no web code. Typical use::
+Python, numpy and numba-compiled kernels; no web code. Typical use::
 
     from kinematics import default_catalogue, compile_model, as_batch
     model = default_catalogue().get("ur5")

@@ -10,9 +10,9 @@ Below 32 MiB glibc keeps freed memory in its heap and hands it out again.
 :func:`result_array` does the same for the large ones: when the last reference to a result
 is gone, its buffer goes back to a small pool (at most ``POOL_BYTES`` in all, exact sizes),
 and the next result of that size reuses it, already faulted in. Arrays are ordinary
-C-contiguous float64 ndarrays; their ``base`` is a :class:`_Lease` that owns the buffer
-while any view of the result is alive (numpy's views keep a reference to the lease, not
-to an intermediate array, so a view alone keeps it alive too).
+C-contiguous float64 ndarrays; their ``base`` is a :class:`_Lease` whose finalizer returns
+the buffer. A view of the result keeps the result (its base) alive, and so the lease: the
+buffer is reused only when the result and every view of it are gone.
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ class _Pool:
         # re-entrant: a lease's finalizer (give_back) may run inside take() or give_back() when
         # an allocation there sets off the cyclic garbage collector
         self.lock = threading.RLock()
-        self.reused = 0  # statistics (tests, benchmarks)
+        self.reused = 0  # statistics (tests)
         self.allocated = 0
 
     def take(self, n: int) -> np.ndarray:

@@ -38,14 +38,19 @@ import math
 import numba as nb
 import numpy as np
 
+from .poe import REVOLUTE
+
 #: Configurations per chunk of the compiled kernel (frames of one chunk stay in L2).
 CHUNK = 256
 #: Padding (float64 elements) of each frame row, so rows of a chunk are not 4 KiB apart.
 ROW_PAD = 8
-#: Largest |θ| reduced exactly by the polynomial sine/cosine (as kinematics.kernels).
+#: Largest |θ| reduced exactly by the polynomial sine/cosine (|k| < 2^20 quadrants).
 SINCOS_MAX_ARG = 1.0e6
 
-# fdlibm kernels (see kinematics.kernels for the derivation of the constants)
+# fdlibm (__kernel_sin, __kernel_cos, __ieee754_rem_pio2): on |r| <= π/4 the polynomials are
+# accurate to < 2^-58. π/2 = _PIO2_1 + _PIO2_1T with a 33-bit first part, so k·_PIO2_1 is exact
+# and θ - k·_PIO2_1 too for |k| < 2^20; the absolute error of r stays ~1e-20 (we need absolute,
+# not relative, accuracy near multiples of π/2, so fdlibm's third part is not needed).
 _TWO_OVER_PI = 6.36619772367581382433e-01
 _PIO2_1 = 1.57079632673412561417e00
 _PIO2_1T = 6.07710050650619224932e-11
@@ -110,7 +115,7 @@ def _chunk_frames(Q, a, m, joints, jint, jflt, F, W):
         for i in range(m):
             th[i] = Q[a + i, col] * mu + off
         _sincos_row(th, s, c, m)
-        _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == 0, jflt[j], s, c, th, m)
+        _joint_frames(F, j, jint[j, J_PARENT], jint[j, J_KIND] == REVOLUTE, jflt[j], s, c, th, m)
 
 
 @nb.njit(**_JIT)
@@ -266,7 +271,7 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
                 j = path[jj]
                 Fj = F[j]
                 wx, wy, wz = Fj[2, i], Fj[6, i], Fj[10, i]  # the joint axis, world
-                if jint[j, J_KIND] == 0:  # revolute: (ω × (o - p), ω), p a point on the axis
+                if jint[j, J_KIND] == REVOLUTE:  # revolute: (ω × (o - p), ω), p a point on the axis
                     dx, dy, dz = ox - Fj[3, i], oy - Fj[7, i], oz - Fj[11, i]
                     vx = wy * dz - wz * dy
                     vy = wz * dx - wx * dz

@@ -62,8 +62,6 @@ PLAN_CACHE_SIZE = 256
 #: when building the axis frames (an exact signed permutation; the error is below this).
 AXIS_ALIGNED_EPS = 1e-16
 
-REVOLUTE, PRISMATIC = 0, 1  # same codes as kinematics.poe and kinematics.compiled
-
 _REFERENCE_CODES = {"world": compiled.REF_WORLD, "local_world_aligned": compiled.REF_LOCAL_WORLD_ALIGNED,
                     "local": compiled.REF_LOCAL}
 

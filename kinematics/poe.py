@@ -291,9 +291,8 @@ def warm_up() -> None:
     """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, rotation
     to quaternion; compiling them on the first run on a machine, a few seconds, then from
     numba's disk cache), so that a server's first request does not pay for either."""
-    from .urdf import parse_urdf
-
     from .measures import pose_components
+    from .urdf import parse_urdf
 
     model = parse_urdf(_WARM_UP_URDF)
     poe = compile_model(model)
