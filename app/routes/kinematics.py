@@ -133,11 +133,22 @@ def _configurations(q: Any) -> int:
     return 1
 
 
-async def _run(handler, call: Call, *args):
-    """``handler(*args)`` on the event loop for a small request, else in the thread pool."""
+async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
+    """``handler(...)`` on the event loop for a small request, else in the thread pool."""
+    args = (model_id, call, request, registry, settings)
     if _configurations(call.q) <= INLINE_MAX_CONFIGURATIONS:
         return handler(*args)
     return await run_in_threadpool(handler, *args)
+
+
+def _prepare(model_id: str, call: Call, registry, settings: Settings):
+    """(record, model, compiled model, Q (N, dof), is_batch) of a request; limits refused here."""
+    rec = registry.get(model_id)
+    model = rec.model
+    poe = compile_model(model)
+    Q, is_batch = _batch(model, call.q, settings)
+    _limits(model, Q, call.limits)
+    return rec, model, poe, Q, is_batch
 
 
 def _batch(model, q: Any, settings: Settings) -> tuple[np.ndarray, bool]:
@@ -207,15 +218,11 @@ async def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(re
     `format`: `pose` (matrix, position, quaternion {w,x,y,z}, rpy), `matrix`, or `compact`
     (per link `positions` (N, 3) and `quaternions` (N, 4), w first).
     """
-    return await _run(_forward_kinematics, call, model_id, call, request, registry, settings)
+    return await _run(_forward_kinematics, model_id, call, request, registry, settings)
 
 
 def _forward_kinematics(model_id: str, call: Call, request: Request, registry, settings: Settings):
-    rec = registry.get(model_id)
-    model = rec.model
-    poe = compile_model(model)
-    Q, is_batch = _batch(model, call.q, settings)
-    _limits(model, Q, call.limits)
+    rec, model, poe, Q, is_batch = _prepare(model_id, call, registry, settings)
     links = list(model.leaf_links) if call.links is None else list(model.links) if call.links == "all" else list(call.links)
     links = list(dict.fromkeys(links))  # a link named twice is computed and answered once
     poe.link_indices(links)  # unknown links: 404 before any work
@@ -259,15 +266,11 @@ async def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobia
     Also the singular values, manipulability (their product) and condition number
     (largest / smallest; `null` at a singularity). `verify: true` compares with Pinocchio.
     """
-    return await _run(_jacobian, call, model_id, call, request, registry, settings)
+    return await _run(_jacobian, model_id, call, request, registry, settings)
 
 
 def _jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
-    rec = registry.get(model_id)
-    model = rec.model
-    poe = compile_model(model)
-    Q, is_batch = _batch(model, call.q, settings)
-    _limits(model, Q, call.limits)
+    rec, model, poe, Q, is_batch = _prepare(model_id, call, registry, settings)
     link = call.link
     if link is None:
         link = model.leaf_links[0]
