@@ -74,9 +74,25 @@ def _split_names(values: list[str] | None):
     return "all" if names == ["all"] else names
 
 
+#: Requests of at most this many configurations are answered on the event loop: their work
+#: takes microseconds, and handing them to the thread pool costs a thread wake-up
+#: (0.1-0.4 ms here). Larger ones run in the thread pool, so the loop keeps serving.
+INLINE_MAX_CONFIGURATIONS = 8
+
+
+def _configurations(q: Any) -> int:
+    """How many configurations a request's q holds (before validation; 1 for a vector or a map)."""
+    if isinstance(q, np.ndarray):
+        return int(q.shape[0]) if q.ndim == 2 else 1
+    if isinstance(q, list) and q and isinstance(q[0], (list, dict)):
+        return len(q)
+    return 1
+
+
 def _check_json_batch_size(body_q: Any, settings: Settings) -> None:
-    if isinstance(body_q, list) and body_q and isinstance(body_q[0], (list, dict)) and len(body_q) > settings.max_batch:
-        raise ProblemError(413, f"q has {len(body_q)} configurations; the limit is {settings.max_batch}",
+    n = _configurations(body_q)
+    if n > settings.max_batch:
+        raise ProblemError(413, f"q has {n} configurations; the limit is {settings.max_batch}",
                            slug="batch-too-large", field="q", limit=settings.max_batch)
 
 
@@ -116,21 +132,6 @@ async def read_jacobian_call(
 ) -> Call:
     return await _read_call(request, settings, JacobianRequest,
                             {"link": link, "reference": reference, "verify": verify, "limits": limits})
-
-
-#: Requests of at most this many configurations are answered on the event loop: their work
-#: takes microseconds, and handing them to the thread pool costs a thread wake-up
-#: (0.1-0.4 ms here). Larger ones run in the thread pool, so the loop keeps serving.
-INLINE_MAX_CONFIGURATIONS = 8
-
-
-def _configurations(q: Any) -> int:
-    """How many configurations a request's q holds (before validation; 1 for a vector or a map)."""
-    if isinstance(q, np.ndarray):
-        return int(q.shape[0]) if q.ndim == 2 else 1
-    if isinstance(q, list) and q and isinstance(q[0], (list, dict)):
-        return len(q)
-    return 1
 
 
 async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
