@@ -19,6 +19,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from kinematics.errors import (
     BasePoseError,
+    BudgetError,
     DHError,
     JointValueError,
     KinematicsError,
@@ -41,6 +42,7 @@ PROBLEM_TYPE_PREFIX = "urn:kinematics:problem:"
 KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (UnknownModelError, 404, "unknown-model", "Unknown model"),
     (UnknownLinkError, 404, "unknown-link", "Unknown link"),
+    (BudgetError, 413, "too-large", "Content too large"),
     (ModelTooLargeError, 413, "model-too-large", "Model over the size limit"),
     (URDFError, 422, "invalid-urdf", "Invalid or unsupported URDF"),
     (DHError, 422, "invalid-dh-table", "Invalid Denavit-Hartenberg table"),
@@ -101,6 +103,8 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
         if isinstance(exc, cls):
             break
     detail = str(exc)
+    if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
+        return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))
 
 

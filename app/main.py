@@ -18,7 +18,8 @@ from fastapi.openapi.utils import get_openapi
 from pydantic.json_schema import models_json_schema
 
 import kinematics
-from kinematics.catalogue import default_catalogue
+from kinematics import api
+from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
 from .errors import install_error_handlers
@@ -113,7 +114,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         data_dir = settings.resolved_data_dir()
-        kinematics.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
+        api.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
         registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
         loaded = registry.load_stored()
         app.state.registry = registry

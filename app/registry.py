@@ -14,7 +14,7 @@ Layout (``<data_dir>/models/``), one content file per model plus a small JSON si
 
 * ``u-<16 hex>.urdf``     an uploaded URDF, byte for byte; the id is the first 16 hex
   digits of its SHA-256, so the same file has the same id on every replica;
-* ``dh-<16 hex>.dh.json`` a DH table (the canonical JSON of :func:`kinematics.dh.table_to_dict`,
+* ``dh-<16 hex>.dh.json`` a DH table (the canonical JSON of :func:`kinematics.io.dh_table.table_to_dict`,
   angles in radians, keys sorted); the id hashes that canonical JSON;
 * ``<id>.meta.json``      ``{"name", "source", "created"}`` (optional; written first).
 
@@ -38,10 +38,11 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from kinematics import parse_urdf
-from kinematics.catalogue import Catalogue
 from kinematics.errors import KinematicsError, UnknownModelError
-from kinematics.model import RobotModel
+from kinematics.io import dh_table as dh
+from kinematics.io.catalogue import Catalogue
+from kinematics.io.urdf import parse_urdf
+from kinematics.model.robot import RobotModel
 
 from .errors import ProblemError
 
@@ -188,8 +189,6 @@ class Registry:
                 model = self.catalogue.get(model_id)
                 table = None
                 if entry.source == "preset":  # a DH preset: show the table it was built from
-                    from kinematics import dh
-
                     table = dh.table_to_dict(dh.load_table(entry.path))
                 rec = ModelRecord(model_id, model.name, entry.source, model, dh_table=table)
                 with self._lock:
@@ -236,12 +235,10 @@ class Registry:
         return self._register(urdf_id(data), model, data, name, SOURCE_UPLOAD)
 
     def add_dh(self, table_dict: dict[str, Any], name: str | None = None) -> tuple[ModelRecord, bool]:
-        """Register a model built from a DH table (the JSON of DESIGN.md); ``(record, created)``."""
-        from kinematics import dh
-
+        """Register a model built from a DH table (the JSON of ``POST /models/dh``); ``(record, created)``."""
         table = dh.table_from_dict(table_dict)
         canonical = canonical_json(dh.table_to_dict(table, angles=DH_CANONICAL_ANGLES))
-        model = parse_urdf(dh.table_to_urdf(table), max_links=self.max_links)
+        model = dh.model_from_table(table, max_links=self.max_links)
         return self._register(dh_id(canonical), model, canonical, name, SOURCE_DH, json.loads(canonical))
 
     def _register(self, model_id: str, model: RobotModel, content: bytes, name: str | None, source: str,
@@ -344,8 +341,6 @@ class Registry:
                 raise ValueError(f"{path.name}: {exc}") from None
             source = SOURCE_UPLOAD
         else:
-            from kinematics import dh
-
             try:
                 table = json.loads(data)
                 if not isinstance(table, dict):
@@ -353,7 +348,7 @@ class Registry:
                 parsed = dh.table_from_dict(table)
                 if dh_id(canonical_json(dh.table_to_dict(parsed, angles=DH_CANONICAL_ANGLES))) != model_id:
                     raise ValueError("content does not hash to its id (corrupt or foreign file)")
-                model = parse_urdf(dh.table_to_urdf(parsed), max_links=self.max_links)
+                model = dh.model_from_table(parsed, max_links=self.max_links)
             except (ValueError, KinematicsError) as exc:
                 raise ValueError(f"{path.name}: {exc}") from None
             source = SOURCE_DH

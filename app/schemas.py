@@ -11,6 +11,8 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, Strict
 
+from kinematics.spatial.reference import Reference
+
 Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolean)
 Vector = list[float]
 Matrix = list[list[float]]
@@ -19,7 +21,7 @@ JointMap = dict[str, Number]
 #: q as the contract allows it: a vector in joint_names order, a name map, or a list of those (a batch)
 JointValues = Union[JointVector, JointMap, list[JointVector], list[JointMap]]
 
-References = Literal["world", "local", "local_world_aligned"]
+References = Reference  # the reference frames: one enum, the library's
 LimitPolicy = Literal["report", "refuse"]
 PoseFormat = Literal["pose", "matrix", "compact"]
 
@@ -98,7 +100,7 @@ class URDFUpload(BaseModel):
 
 
 class DHJoint(BaseModel):
-    """One DH row (``kinematics.dh`` validates the table and names the field at fault)."""
+    """One DH row (``kinematics.io.dh_table`` validates the table and names the field at fault)."""
 
     model_config = ConfigDict(extra="allow")
     type: str = Field(description="revolute | prismatic (or R | P)", examples=["revolute"])
@@ -234,7 +236,7 @@ class JacobianRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     q: JointValues = Field(description=_Q_DESC)
     link: str | None = Field(default=None, description="default: the first leaf link")
-    reference: References = Field(default="world", description="world | local | local_world_aligned (Pinocchio's meaning)")
+    reference: References = Field(default=Reference.WORLD, description="world | local | local_world_aligned (Pinocchio's meaning)")
     verify: bool = False
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)

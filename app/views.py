@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from kinematics import pose_components
-from kinematics.model import Joint
+from kinematics.model.robot import Joint
+from kinematics.spatial.transforms import pose_components
 
 from .registry import ModelRecord
 
@@ -34,28 +32,3 @@ def model_info(rec: ModelRecord) -> dict:
         "joints": [joint_info(j) for j in m.joints], "warnings": list(m.warnings),
         "urdf_sha256": m.content_hash, "created": rec.created, "dh_table": rec.dh_table,
     }
-
-
-def poses_json(T: np.ndarray, links: list[str], fmt: str, is_batch: bool):
-    """``poses`` of an FK answer from T (N, L, 4, 4), in format pose | matrix | compact."""
-    N = T.shape[0]
-    if fmt == "matrix":
-        per_config = [{link: T[n, k] for k, link in enumerate(links)} for n in range(N)]
-        return per_config if is_batch else per_config[0]
-    comps = pose_components(T)
-    position = np.ascontiguousarray(comps["position"])
-    quaternion = np.ascontiguousarray(comps["quaternion"])
-    if fmt == "compact":
-        return {link: {"positions": np.ascontiguousarray(position[:, k]),
-                       "quaternions": np.ascontiguousarray(quaternion[:, k])} for k, link in enumerate(links)}
-    rpy = np.ascontiguousarray(comps["rpy"])
-    quats = quaternion.tolist()
-    per_config = []
-    for n in range(N):
-        qn = quats[n]
-        per_config.append({
-            link: {"matrix": T[n, k], "position": position[n, k],
-                   "quaternion": {"w": qn[k][0], "x": qn[k][1], "y": qn[k][2], "z": qn[k][3]}, "rpy": rpy[n, k]}
-            for k, link in enumerate(links)
-        })
-    return per_config if is_batch else per_config[0]

@@ -7,9 +7,9 @@ import numpy as np
 import pinocchio as pin
 
 from kinematics import compile_model
-from kinematics.catalogue import default_catalogue
-from kinematics.crosscheck import reference_for
-from kinematics.buffers import aligned_empty
+from kinematics.io.catalogue import default_catalogue
+from kinematics.verify.pinocchio import reference_for
+from kinematics.engine.buffers import aligned_empty
 
 from .common import ROBOTS, Report, configurations, measure, table, tool_link, us
 

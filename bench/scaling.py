@@ -10,9 +10,9 @@ import numpy as np
 import pinocchio as pin
 
 from kinematics import compile_model
-from kinematics.catalogue import default_catalogue
-from kinematics.crosscheck import reference_for
-from kinematics.kernels import CHUNK_SIZE
+from kinematics.io.catalogue import default_catalogue
+from kinematics.verify.pinocchio import reference_for
+from kinematics.engine.plans import CHUNK_SIZE
 
 from .common import Report, configurations, measure, table, tool_link, us
 

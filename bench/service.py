@@ -25,7 +25,7 @@ import orjson
 import pinocchio as pin
 
 from kinematics import compile_model
-from kinematics.catalogue import default_catalogue
+from kinematics.io.catalogue import default_catalogue
 
 from .common import Report, configurations, measure, ms, percentile_times, table, us
 from .kernels import _pinocchio
@@ -263,7 +263,7 @@ def server_steps(report: Report, model, Q: np.ndarray, t_pin: float) -> None:
     from app.responses import NpyResponse
 
     from kinematics import as_batch
-    from kinematics.joints import limit_violations
+    from kinematics.model.joint_values import limit_violations
 
     poe = compile_model(model)
     body = npy_bytes(Q)

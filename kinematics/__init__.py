@@ -1,17 +1,28 @@
-"""Kinematics library: URDF and DH robot models, product-of-exponentials FK and Jacobians.
+"""Kinematics library: robot models from URDF and DH tables, product-of-exponentials FK and
+Jacobians in compiled kernels, cross-checked against Pinocchio. No web code.
 
-Python, numpy and numba-compiled kernels; no web code. Typical use::
+The package is layered, each layer importing only those below it (an import contract in
+``pyproject.toml`` checks it): :mod:`~kinematics.spatial` (SO(3)/SE(3)) <
+:mod:`~kinematics.model` (the immutable robot model, q) < :mod:`~kinematics.io` (URDF, DH
+tables, catalogue, files) and :mod:`~kinematics.engine` (compiled PoE kernels) <
+:mod:`~kinematics.algorithms` (FK, Jacobians, DH forms, ...) < :mod:`~kinematics.verify`
+(Pinocchio) < :mod:`~kinematics.api` (the use cases) < :mod:`~kinematics.cli`.
 
-    from kinematics import default_catalogue, compile_model, as_batch
-    model = default_catalogue().get("ur5")
-    Q, _ = as_batch(model, [0.0] * model.dof)
-    T = compile_model(model).fk(Q, ["tool0"])          # (1, 1, 4, 4)
-    J = compile_model(model).jacobian(Q, "tool0", "local_world_aligned")  # (1, 6, 6)
+Typical use::
+
+    >>> import kinematics
+    >>> ur5 = kinematics.default_catalogue().get("ur5")
+    >>> kinematics.fk(ur5, [0.0] * 6, links=["tool0"]).poses.shape
+    (1, 1, 4, 4)
+    >>> kinematics.jacobian(ur5, [[0.0] * 6] * 3, link="tool0", reference="local").jacobians.shape
+    (3, 6, 6)
 """
 
-from .catalogue import Catalogue, default_catalogue
+from .api import Budget, FKAnswer, JacobianAnswer, Verification, fk, jacobian, joint_batch, load_model, warm_up
+from .engine.poe import PoEModel, compile_model
 from .errors import (
     BasePoseError,
+    BudgetError,
     DHError,
     JointValueError,
     KinematicsError,
@@ -23,18 +34,19 @@ from .errors import (
     UnsupportedJointError,
     URDFError,
 )
-from .joints import as_batch, out_of_limits, require_within_limits
-from .measures import conditioning, pose_components
-from .model import Joint, Limits, Mimic, RobotModel
-from .poe import REFERENCES, PoEModel, compile_model, warm_up
-from .urdf import load_urdf, parse_urdf
+from .io.catalogue import Catalogue, default_catalogue
+from .io.urdf import load_urdf, parse_urdf
+from .model.joint_values import as_batch, out_of_limits, require_within_limits
+from .model.robot import Joint, Limits, Mimic, RobotModel
+from .spatial.reference import REFERENCES, Reference
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Catalogue", "default_catalogue", "BasePoseError", "DHError", "JointValueError", "KinematicsError", "LimitError",
-    "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
-    "UnsupportedJointError", "URDFError", "as_batch", "out_of_limits", "require_within_limits",
-    "conditioning", "pose_components", "Joint", "Limits", "Mimic", "RobotModel", "REFERENCES",
-    "PoEModel", "compile_model", "load_urdf", "parse_urdf", "warm_up", "__version__",
+    "Budget", "FKAnswer", "JacobianAnswer", "Verification", "fk", "jacobian", "joint_batch", "load_model", "warm_up",
+    "PoEModel", "compile_model", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
+    "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
+    "UnsupportedJointError", "URDFError", "Catalogue", "default_catalogue", "load_urdf", "parse_urdf", "as_batch",
+    "out_of_limits", "require_within_limits", "Joint", "Limits", "Mimic", "RobotModel", "REFERENCES", "Reference",
+    "__version__",
 ]

@@ -21,7 +21,7 @@ class UnsupportedJointError(URDFError):
 
 
 class ModelTooLargeError(URDFError):
-    """A URDF with more links or joints than the configured limit (the API answers 413)."""
+    """A URDF with more links or joints than the configured limit."""
 
 
 class DHError(KinematicsError):
@@ -54,3 +54,18 @@ class ReferenceUnavailableError(KinematicsError):
 
 class BasePoseError(KinematicsError):
     """A base pose (the root link's pose in the world) that is malformed or not rigid."""
+
+
+class BudgetError(KinematicsError):
+    """A request over one of the caller's budgets (:class:`kinematics.api.Budget`).
+
+    ``budget`` names which (``batch``: configurations; ``verify``: configurations compared
+    with the reference; ``result``: numbers in the answer), ``field`` the part of the request
+    and ``limit`` the bound.
+    """
+
+    def __init__(self, message: str, *, budget: str, field: str, limit: int):
+        super().__init__(message)
+        self.budget = budget
+        self.field = field
+        self.limit = limit

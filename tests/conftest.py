@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-FIXTURES = Path(__file__).parent / "fixtures"
+from tests.paths import FIXTURES  # noqa: F401 - tests import it from here too
 
 
 @pytest.fixture

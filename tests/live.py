@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 import httpx
+from tests.paths import REPO
 
-REPO = Path(__file__).resolve().parent.parent
 #: how long a server may take to answer /health after start (imports Pinocchio, scans data)
 STARTUP_TIMEOUT = 90.0
 

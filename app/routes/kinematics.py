@@ -16,10 +16,9 @@ import numpy as np
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.concurrency import run_in_threadpool
 
-from kinematics import as_batch, compile_model, conditioning, out_of_limits, require_within_limits
-from kinematics.errors import JointValueError
-from kinematics.joints import limit_violations
-from kinematics.base_pose import base_poses, jacobian_in_world, poses_in_world
+from kinematics import api
+from kinematics.io.pose_records import pose_output
+from kinematics.spatial.reference import Reference
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
@@ -28,7 +27,6 @@ from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
                        Problem)
 from ..settings import Settings
-from ..views import poses_json
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -89,11 +87,9 @@ def _configurations(q: Any) -> int:
     return 1
 
 
-def _check_json_batch_size(body_q: Any, settings: Settings) -> None:
-    n = _configurations(body_q)
-    if n > settings.max_batch:
-        raise ProblemError(413, f"q has {n} configurations; the limit is {settings.max_batch}",
-                           slug="batch-too-large", field="q", limit=settings.max_batch)
+def _budget(settings: Settings) -> api.Budget:
+    return api.Budget(max_batch=settings.max_batch, max_verify=settings.max_verify,
+                      max_result_values=settings.max_result_values)
 
 
 async def _read_call(request: Request, settings: Settings, schema, query: dict) -> Call:
@@ -107,7 +103,7 @@ async def _read_call(request: Request, settings: Settings, schema, query: dict) 
     if not body:
         raise ProblemError(422, "the body is empty: send {\"q\": [...]}", slug="validation-error", field="q")
     req = schema.model_validate_json(body)
-    _check_json_batch_size(req.q, settings)
+    _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
     fields = req.model_dump(exclude={"q"})
     return Call(q=req.q, **fields)
 
@@ -126,7 +122,7 @@ async def read_fk_call(
 async def read_jacobian_call(
     request: Request, settings: SettingsDep,
     link: Annotated[str | None, Query(description=".npy bodies: the link (default: the first leaf link)")] = None,
-    reference: Annotated[Literal["world", "local", "local_world_aligned"], Query(description=".npy bodies: reference")] = "world",
+    reference: Annotated[Reference, Query(description=".npy bodies: reference")] = Reference.WORLD,
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
 ) -> Call:
@@ -140,57 +136,6 @@ async def _run(handler, model_id: str, call: Call, request: Request, registry, s
     if _configurations(call.q) <= INLINE_MAX_CONFIGURATIONS:
         return handler(*args)
     return await run_in_threadpool(handler, *args)
-
-
-def _prepare(model_id: str, call: Call, registry, settings: Settings):
-    """(record, model, compiled model, Q (N, dof), is_batch) of a request; limits refused here."""
-    rec = registry.get(model_id)
-    model = rec.model
-    poe = compile_model(model)
-    Q, is_batch = _batch(model, call.q, settings)
-    _limits(model, Q, call.limits)
-    return rec, model, poe, Q, is_batch
-
-
-def _batch(model, q: Any, settings: Settings) -> tuple[np.ndarray, bool]:
-    """(Q (N, dof), is_batch); a JSON list of equal-length vectors takes a vectorised path."""
-    if isinstance(q, list) and q and isinstance(q[0], list):
-        try:
-            arr = np.array(q, dtype=float)
-        except ValueError:  # ragged: let the library name the configuration at fault
-            arr = None
-        if arr is not None and arr.ndim == 2:
-            q = arr
-    Q, is_batch = as_batch(model, q)
-    if Q.shape[0] > settings.max_batch:
-        raise ProblemError(413, f"q has {Q.shape[0]} configurations; the limit is {settings.max_batch}",
-                           slug="batch-too-large", field="q", limit=settings.max_batch)
-    if Q.shape[0] == 0:
-        raise JointValueError("q has no configuration")
-    return Q, is_batch
-
-
-def _limits(model, Q: np.ndarray, policy: str) -> None:
-    if policy == "refuse":
-        require_within_limits(model, Q)
-
-
-def _out_of_limits_count(model, Q: np.ndarray) -> str:
-    """``X-Out-Of-Limits`` of a ``.npy`` answer: how many configurations have a joint outside its limits."""
-    return str(int(np.count_nonzero(limit_violations(model, Q).any(axis=1))))
-
-
-def _check_verify(call: Call, N: int, settings: Settings) -> None:
-    if call.verify and N > settings.max_verify:
-        raise ProblemError(413, f"verify checks at most {settings.max_verify} configurations, q has {N}",
-                           slug="verify-too-large", field="verify", limit=settings.max_verify)
-
-
-def _check_result_size(values: int, settings: Settings, what: str) -> None:
-    if values > settings.max_result_values:
-        raise ProblemError(413, f"the answer would hold {values} numbers ({what}); the limit is "
-                           f"{settings.max_result_values}: send fewer configurations or links",
-                           slug="result-too-large", field="q", limit=settings.max_result_values)
 
 
 def _names_headers(links: list[str], joint_names) -> dict[str, str]:
@@ -223,35 +168,24 @@ async def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(re
 
 
 def _forward_kinematics(model_id: str, call: Call, request: Request, registry, settings: Settings):
-    rec, model, poe, Q, is_batch = _prepare(model_id, call, registry, settings)
-    links = list(model.leaf_links) if call.links is None else list(model.links) if call.links == "all" else list(call.links)
-    links = list(dict.fromkeys(links))  # a link named twice is computed and answered once
-    poe.link_indices(links)  # unknown links: 404 before any work
-    _check_verify(call, Q.shape[0], settings)
-    _check_result_size(Q.shape[0] * len(links) * 16, settings, f"{Q.shape[0]} configurations x {len(links)} links x 16")
-    B = base_poses(call.base, Q.shape[0])
-    T = poe.fk(Q, links)  # the kernels work in bounded chunks
-    verification = None
-    if call.verify:
-        from kinematics.crosscheck import compare_fk
-
-        dev = compare_fk(model, Q, links, poses=T)
-        verification = {"reference": dev.reference, "max_position_error": dev.max_position_error,
-                        "max_rotation_error": dev.max_rotation_error}
-    T = poses_in_world(T, B)
+    rec = registry.get(model_id)
+    answer = api.fk(rec.model, call.q, links=call.links, base=call.base, verify=call.verify, limits=call.limits,
+                    budget=_budget(settings))
+    verification = answer.verification
     if wants_npy(request):
-        headers = _names_headers(links, model.joint_names)
-        headers["X-Out-Of-Limits"] = _out_of_limits_count(model, Q)
+        headers = _names_headers(answer.links, rec.model.joint_names)
+        headers["X-Out-Of-Limits"] = str(answer.out_of_limits_count())
         if verification:
-            headers.update({"X-Verification-Reference": verification["reference"],
-                            "X-Max-Position-Error": repr(verification["max_position_error"]),
-                            "X-Max-Rotation-Error": repr(verification["max_rotation_error"])})
-        return NpyResponse(T, headers=headers)
-    oob = out_of_limits(model, Q)
+            headers.update({"X-Verification-Reference": verification.reference,
+                            "X-Max-Position-Error": repr(verification.max_position_error),
+                            "X-Max-Rotation-Error": repr(verification.max_rotation_error)})
+        return NpyResponse(answer.poses, headers=headers)
+    oob = answer.out_of_limits()
     return FastJSONResponse({
-        "model": rec.id, "joint_names": list(model.joint_names), "links": links, "format": call.format,
-        "poses": poses_json(T, links, call.format, is_batch),
-        "out_of_limits": oob if is_batch else oob[0], "verification": verification,
+        "model": rec.id, "joint_names": list(rec.model.joint_names), "links": answer.links, "format": call.format,
+        "poses": pose_output(answer.poses, answer.links, call.format, answer.is_batch),
+        "out_of_limits": oob if answer.is_batch else oob[0],
+        "verification": verification.as_dict() if verification else None,
     })
 
 
@@ -271,39 +205,28 @@ async def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobia
 
 
 def _jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
-    rec, model, poe, Q, is_batch = _prepare(model_id, call, registry, settings)
-    link = call.link
-    if link is None:
-        link = model.leaf_links[0]
-    poe.link_indices([link])
-    _check_verify(call, Q.shape[0], settings)
-    _check_result_size(Q.shape[0] * 6 * model.dof, settings, f"{Q.shape[0]} configurations x 6 x {model.dof}")
-    B = base_poses(call.base, Q.shape[0])
-    J = poe.jacobian(Q, link, call.reference)  # the kernels work in bounded chunks
-    verification = None
-    if call.verify:
-        from kinematics.crosscheck import REFERENCE_NAME, compare_jacobian
-
-        err = compare_jacobian(model, Q, link, references=(call.reference,), jacobians={call.reference: J})
-        verification = {"reference": REFERENCE_NAME, "max_jacobian_error": err}
-    J = jacobian_in_world(J, B, call.reference)
+    rec = registry.get(model_id)
+    answer = api.jacobian(rec.model, call.q, link=call.link, reference=call.reference, base=call.base,
+                          verify=call.verify, limits=call.limits, budget=_budget(settings))
+    J, verification = answer.jacobians, answer.verification
     if wants_npy(request):
-        headers = _names_headers([link], model.joint_names)
-        headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": call.reference,
-                        "X-Out-Of-Limits": _out_of_limits_count(model, Q)})
+        headers = _names_headers([answer.link], rec.model.joint_names)
+        headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": answer.reference.value,
+                        "X-Out-Of-Limits": str(answer.out_of_limits_count())})
         if verification:
-            headers.update({"X-Verification-Reference": verification["reference"],
-                            "X-Max-Jacobian-Error": repr(verification["max_jacobian_error"])})
+            headers.update({"X-Verification-Reference": verification.reference,
+                            "X-Max-Jacobian-Error": repr(verification.max_jacobian_error)})
         return NpyResponse(J, headers=headers)
-    oob = out_of_limits(model, Q)
-    measures = conditioning(J)
+    oob = answer.out_of_limits()
+    measures = answer.conditioning()
     cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
-    if is_batch:
+    if answer.is_batch:
         body = {"jacobian": J, "singular_values": measures["singular_values"],
                 "manipulability": measures["manipulability"], "condition_number": cond, "out_of_limits": oob}
     else:
         body = {"jacobian": J[0], "singular_values": measures["singular_values"][0],
                 "manipulability": float(measures["manipulability"][0]), "condition_number": cond[0],
                 "out_of_limits": oob[0]}
-    return FastJSONResponse({"model": rec.id, "link": link, "reference": call.reference,
-                             "joint_names": list(model.joint_names), **body, "verification": verification})
+    return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": answer.reference.value,
+                             "joint_names": list(rec.model.joint_names), **body,
+                             "verification": verification.as_dict() if verification else None})

@@ -8,7 +8,8 @@ import orjson
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import Response as PlainResponse
 
-from kinematics import compile_model
+from kinematics import api
+from kinematics.io.dh_table import table_to_dict
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, require_write_key
 from ..errors import ProblemError
@@ -153,7 +154,7 @@ def get_screws(model_id: ModelId, registry: RegistryDep) -> dict:
     `T_world_L(q) = exp([S_1] q_1) ... exp([S_k] q_k) M_L` over the moving joints on the path to L.
     """
     rec = registry.get(model_id)
-    poe = compile_model(rec.model)
+    poe = api.screws(rec.model)
     joints = []
     for j, name in enumerate(poe.joint_names):
         joints.append({
@@ -170,7 +171,5 @@ def get_dh(model_id: ModelId, registry: RegistryDep,
            tip: Annotated[str | None, Query(description="the link ending the chain (default: the only leaf)")] = None,
            convention: Annotated[Literal["standard", "modified"], Query()] = "standard") -> dict:
     """The model as a DH table, when it is a serial chain that has one (422 otherwise)."""
-    from kinematics import dh
-
     rec = registry.get(model_id)
-    return dh.table_to_dict(dh.urdf_to_dh(rec.model, tip=tip, convention=convention))
+    return table_to_dict(api.dh_form(rec.model, tip=tip, convention=convention))

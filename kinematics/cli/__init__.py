@@ -1,7 +1,9 @@
 """``kinematics`` command line: one sub-command module per feature.
 
 Each module in this package exposes ``register(subparsers)`` which adds its commands and
-sets ``func`` on them; ``func(args)`` returns the process exit code.
+sets ``func`` on them; ``func(args)`` returns the process exit code. Other installed
+packages add commands the same way through the entry-point group ``kinematics.commands``
+(the service adds ``serve``; the library itself never names it).
 
 Exit codes: 0 success; 1 a check found a disagreement; 2 bad usage or bad input file;
 3 a model could not be loaded.
@@ -12,11 +14,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from importlib.metadata import entry_points
 
 from ..errors import KinematicsError
 
 #: sub-command modules, in the order their commands appear in ``--help``
 COMMAND_MODULES = ("check", "dh", "pipeline")
+#: entry-point group of commands that other packages add
+PLUGIN_GROUP = "kinematics.commands"
 
 EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_MODEL = 0, 1, 2, 3
 
@@ -36,6 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # feature not installed in this build
             raise
         module.register(sub)
+    for ep in sorted(entry_points(group=PLUGIN_GROUP), key=lambda e: e.name):
+        ep.load()(sub)
     return parser
 
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import sys
 import time
 
-from ..catalogue import default_catalogue
-from ..parity import PARITY_TOLERANCE, check_model, summary_line
+from ..io.catalogue import default_catalogue
+from ..tolerances import AGREEMENT_TOLERANCE
+from ..verify.parity import check_model, summary_line
 from .progress import progress
 
 
@@ -20,7 +21,7 @@ def register(sub) -> None:
     p.add_argument("--samples", type=int, default=5, help="configurations per model (default 5)")
     p.add_argument("--model", action="append", metavar="ID", help="check only this model (repeatable)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--tolerance", type=float, default=PARITY_TOLERANCE, help="largest allowed deviation (default 1e-9)")
+    p.add_argument("--tolerance", type=float, default=AGREEMENT_TOLERANCE, help="largest allowed deviation (default 1e-9)")
     p.set_defaults(func=run)
 
 

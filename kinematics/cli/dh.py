@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..catalogue import default_catalogue
-from ..dh import DHTable, load_table, table_to_dict, table_to_urdf, urdf_to_dh
+from ..algorithms.dh import dh_deviation, urdf_to_dh
 from ..errors import KinematicsError
-from ..urdf import load_urdf
+from ..io.catalogue import default_catalogue
+from ..io.dh_table import DHTable, load_table, table_to_dict, table_to_urdf
+from ..io.urdf import load_urdf
+from . import EXIT_OK, EXIT_USAGE
 
-EXIT_OK, EXIT_USAGE = 0, 2
 #: configurations of ``urdf2dh --check``
 CHECK_SAMPLES = 1000
 
@@ -113,15 +114,9 @@ def run_urdf2dh(args) -> int:
 
 def check_line(model, table: DHTable, tip: str | None, samples: int, seed: int = 0) -> str:
     """One line: the largest deviation of ``base A_1..A_n tool`` from the URDF's FK of the tip."""
-    from ..dh import dh_tool_pose
-    from ..poe import compile_model
-
     tip = tip or model.leaf_links[0]
     Q = model.sample_configurations(samples, np.random.default_rng(seed), continuous_range=math.pi)
-    cols = [model.q_index[name] for name in table.joint_names]
-    diff = dh_tool_pose(table, Q[:, cols]) - compile_model(model).fk(Q, [tip])[:, 0]
-    pos = float(np.max(np.abs(diff[:, :3, 3])))
-    rot = float(np.max(np.abs(diff[:, :3, :3])))
+    pos, rot = dh_deviation(model, table, tip, Q)
     return (
         f"check: {table.convention} DH vs URDF FK of {tip!r} at {samples} random configurations: "
         f"max position error {pos:.3g} m, max rotation error {rot:.3g}"

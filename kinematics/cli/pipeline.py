@@ -1,11 +1,9 @@
-"""Pipeline commands: ``kinematics fk``, ``jacobian``, ``serve`` and ``models``.
+"""Pipeline commands: ``kinematics fk``, ``jacobian`` and ``models``.
 
 ``fk`` and ``jacobian`` stream a trajectory file (CSV, ``.npy`` or JSON lines; see
-:mod:`kinematics.trajectory` for the formats) through the PoE kernels in chunks of
-:data:`~kinematics.trajectory.CHUNK_ROWS` configurations, so memory stays bounded
-whatever the length of the file. ``serve`` runs the REST service (it starts
-``python -m uvicorn app.main:app`` in place of this process; the library itself never
-imports the web stack).
+:mod:`kinematics.io.trajectory` for the formats) through the use cases of
+:mod:`kinematics.api` in chunks of :data:`~kinematics.io.trajectory.CHUNK_ROWS`
+configurations, so memory stays bounded whatever the length of the file.
 """
 
 from __future__ import annotations
@@ -18,19 +16,15 @@ import time
 
 import numpy as np
 
-from ..catalogue import default_catalogue
+from .. import api
 from ..errors import KinematicsError
-from ..joints import LIMIT_TOLERANCE
-from ..model import RobotModel
-from ..poe import REFERENCES, compile_model
-from ..trajectory import CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows
-from ..urdf import load_urdf, parse_urdf
+from ..io.catalogue import default_catalogue
+from ..io.trajectory import CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows
+from ..model.robot import RobotModel
+from ..spatial.reference import REFERENCES
+from ..tolerances import AGREEMENT_TOLERANCE
+from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .progress import progress
-
-EXIT_OK, EXIT_DISAGREE, EXIT_USAGE, EXIT_MODEL = 0, 1, 2, 3
-
-#: largest deviation from Pinocchio that ``--verify`` accepts (metres, rotation entries, Jacobian entries)
-VERIFY_TOLERANCE = 1e-9
 #: rows sampled by a bare ``--verify``
 DEFAULT_VERIFY_ROWS = 100
 
@@ -70,7 +64,7 @@ def _io_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--output-format", choices=FORMATS, help="format of OUTPUT when its extension does not tell")
     p.add_argument("--verify", nargs="?", type=int, const=DEFAULT_VERIFY_ROWS, default=None, metavar="K",
                    help=f"compare K randomly sampled rows (default {DEFAULT_VERIFY_ROWS}) with Pinocchio; "
-                   f"print the largest deviations to stderr; exit 1 above {VERIFY_TOLERANCE:g} "
+                   f"print the largest deviations to stderr; exit 1 above {AGREEMENT_TOLERANCE:g} "
                    "(write --verify=K, or put --verify after INPUT)")
     p.add_argument("--seed", type=int, default=0, help="seed of the --verify sample (default 0)")
     p.add_argument("--chunk", type=int, default=CHUNK_ROWS, metavar="ROWS",
@@ -118,19 +112,6 @@ def register(sub) -> None:
     _io_options(jac)
     jac.set_defaults(func=run_jacobian)
 
-    serve = sub.add_parser(
-        "serve",
-        help="run the REST service (uvicorn app.main:app)",
-        description="Serve the REST API: replaces this process with `python -m uvicorn app.main:app`. "
-        "Settings come from environment variables (KIN_DATA_DIR, KIN_MAX_BATCH, ...); defaults of the "
-        "options below come from HOST, PORT and WEB_CONCURRENCY.",
-    )
-    serve.add_argument("--host", default=os.environ.get("HOST", "127.0.0.1"), help="address to bind (default 127.0.0.1)")
-    serve.add_argument("--port", type=int, default=_env_int("PORT", 8000), help="port (default 8000)")
-    serve.add_argument("--workers", type=int, default=_env_int("WEB_CONCURRENCY", 1), help="worker processes (default 1)")
-    serve.add_argument("--data-dir", metavar="DIR", help="directory of uploaded models (sets KIN_DATA_DIR)")
-    serve.set_defaults(func=run_serve)
-
     models = sub.add_parser(
         "models",
         help="list the bundled catalogue",
@@ -142,26 +123,11 @@ def register(sub) -> None:
     models.set_defaults(func=run_models)
 
 
-def _env_int(name: str, default: int) -> int:
-    try:
-        return int(os.environ.get(name, default))
-    except ValueError:
-        return default
-
-
 # ============================================================================ helpers
 def load_model(args) -> RobotModel:
     """The model named by ``--model``, ``--urdf`` or ``--dh`` (raises :class:`ModelLoadError`)."""
     try:
-        if args.model is not None:
-            return default_catalogue().get(args.model)
-        if args.urdf is not None:
-            return load_urdf(args.urdf)
-        try:
-            from .. import dh  # the DH module: table -> URDF, one path into the model
-        except ImportError:  # pragma: no cover - the DH module ships with the library
-            raise ModelLoadError("DH tables are not supported by this installation") from None
-        return parse_urdf(dh.table_to_urdf(dh.load_table(args.dh)))
+        return api.load_model(model_id=args.model, urdf=args.urdf, dh=args.dh)
     except OSError as exc:
         path = exc.filename or args.urdf or args.dh
         raise ModelLoadError(f"cannot read {path}: {exc.strerror or exc}") from None
@@ -171,13 +137,13 @@ def load_model(args) -> RobotModel:
 
 def _resolve_links(model: RobotModel, spec: list[str] | None) -> list[str]:
     if not spec:
-        return list(model.leaf_links)
+        return api.resolve_links(model, None)
     names = [n.strip() for s in spec for n in s.split(",") if n.strip()]
     if names == ["all"]:
-        return list(model.links)
+        return api.resolve_links(model, "all")
     if "all" in names:
         raise TrajectoryFileError("--links all cannot be combined with link names")
-    compile_model(model).link_indices(names)  # raises UnknownLinkError naming the link
+    api.resolve_links(model, names)  # raises UnknownLinkError naming the link
     return names
 
 
@@ -207,8 +173,6 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
     source = sys.stdin if args.input == "-" else args.input
     dest = sys.stdout if args.output == "-" else args.output
     sampler = RowSampler(args.verify or 0, args.seed)
-    lower = model.lower_limits - LIMIT_TOLERANCE
-    upper = model.upper_limits + LIMIT_TOLERANCE
     outside = 0
     t0 = time.perf_counter()
     with open_joint_rows(source, model, in_fmt, args.chunk) as rows:
@@ -216,10 +180,11 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
         try:
             with ResultWriter(dest, out_fmt, kind, labels) as writer:
                 for start, Q in rows:
-                    result = compute(Q)
+                    answer = compute(Q)
+                    result = answer.poses if kind == "fk" else answer.jacobians
                     writer.write(result)
                     sampler.offer(start, Q, result)
-                    outside += int(((Q < lower) | (Q > upper)).any(axis=1).sum())
+                    outside += answer.out_of_limits_count()
                     bar.update(Q.shape[0])
         finally:
             bar.close()
@@ -245,14 +210,13 @@ def run_fk(args) -> int:
         model = load_model(args)
     except ModelLoadError as exc:
         return _fail("fk", str(exc), EXIT_MODEL)
-    poe = compile_model(model)
     links = _resolve_links(model, args.links)
 
     def compute(Q):
-        return poe.fk(Q, links)
+        return api.fk(model, Q, links=links)
 
     def verify(sampler) -> int:
-        from .. import crosscheck
+        from ..verify import pinocchio as crosscheck
 
         dev = crosscheck.compare_fk(model, sampler.Q, links, poses=sampler.results)
         worst = max(dev.max_position_error, dev.max_rotation_error)
@@ -269,15 +233,14 @@ def run_jacobian(args) -> int:
         model = load_model(args)
     except ModelLoadError as exc:
         return _fail("jacobian", str(exc), EXIT_MODEL)
-    poe = compile_model(model)
     link = args.link or model.leaf_links[0]
-    poe.link_indices([link])  # unknown link: UnknownLinkError (exit 2) before reading anything
+    api.resolve_links(model, [link])  # unknown link: UnknownLinkError (exit 2) before reading anything
 
     def compute(Q):
-        return poe.jacobian(Q, link, args.reference)
+        return api.jacobian(model, Q, link=link, reference=args.reference)
 
     def verify(sampler) -> int:
-        from .. import crosscheck
+        from ..verify import pinocchio as crosscheck
 
         err = crosscheck.compare_jacobian(model, sampler.Q, link, references=(args.reference,),
                                           jacobians={args.reference: sampler.results})
@@ -289,26 +252,10 @@ def run_jacobian(args) -> int:
 
 
 def _verdict(command: str, worst: float) -> int:
-    if worst > VERIFY_TOLERANCE:
-        print(f"{command}: verify: FAIL: deviation {worst:.3g} exceeds {VERIFY_TOLERANCE:g}", file=sys.stderr)
+    if worst > AGREEMENT_TOLERANCE:
+        print(f"{command}: verify: FAIL: deviation {worst:.3g} exceeds {AGREEMENT_TOLERANCE:g}", file=sys.stderr)
         return EXIT_DISAGREE
     return EXIT_OK
-
-
-def run_serve(args) -> int:
-    """Replace this process by uvicorn serving ``app.main:app`` (no web import here)."""
-    if not 0 < args.port < 65536:
-        return _fail("serve", f"--port {args.port} is not a port number", EXIT_USAGE)
-    if args.workers < 1:
-        return _fail("serve", "--workers must be at least 1", EXIT_USAGE)
-    if args.data_dir:
-        os.environ["KIN_DATA_DIR"] = args.data_dir
-    argv = [sys.executable, "-m", "uvicorn", "app.main:app",
-            "--host", args.host, "--port", str(args.port), "--workers", str(args.workers)]
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os.execv(sys.executable, argv)
-    return EXIT_OK  # pragma: no cover - execv does not return
 
 
 def run_models(args) -> int:

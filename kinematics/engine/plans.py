@@ -1,0 +1,227 @@
+"""The constants and plans of the compiled PoE kernels (:mod:`kinematics.engine.compiled`).
+
+These kernels evaluate exactly the product of :mod:`kinematics.engine.poe`,
+
+    T_world_L(q) = exp([S_1] θ_1) ... exp([S_k] θ_k) M_L,
+
+but arrange the arithmetic so that a batch costs little per configuration: the loops of
+:mod:`kinematics.engine.compiled` (numba) run over chunks of configurations with every
+intermediate in registers or cache, and write each pose or Jacobian column once. This
+module precomputes what they read. The reference implementation
+(``PoEModel.fk_reference``, ``PoEModel.jacobian_reference``) stays the definition;
+``tests/kinematics/engine/test_kernels.py`` checks that both agree to 1e-12 on every catalogue model.
+
+The regrouping
+--------------
+Each joint's screw ``S_j`` is a rotation about (or a translation along) a line. Put a
+frame ``G_j`` on that line with its z axis along the axis (``G_j`` is built from ``w_j`` and
+``r_j`` only). Then ``exp([S_j] θ) = G_j Z(θ) G_j^-1`` where ``Z(θ)`` is the rotation about
+(revolute) or translation along (prismatic) the z axis. With the prefix products
+``P_j = P_parent(j) exp([S_j] θ_j)`` and the "axis frames" ``F_j = P_j G_j``:
+
+    F_j = F_parent(j) · (G_parent^-1 G_j) · Z(θ_j)        (F_parent = I, G_parent = I at the root)
+    T_world_L = F_j · (G_j^-1 M_L)                       (j: the last moving joint above L)
+
+Both constant factors (``CZ_j`` and ``D4_L``) are precomputed. Right-multiplying by
+``Z(θ)`` only mixes the first two rotation columns of ``F_j`` with ``cos θ`` and ``sin θ``
+(prismatic: adds ``θ`` times the third column to the translation), and ``F_j``'s third
+column and origin are the joint axis and a point on it in world coordinates, which is all
+the Jacobian needs.
+
+FK results come from :func:`kinematics.engine.buffers.result_array`: aligned to a cache line, and
+large ones recycled (see that module).
+
+Example (the reference and the kernels agree)::
+
+    >>> from kinematics import default_catalogue, compile_model
+    >>> model = default_catalogue().get("ur5")
+    >>> poe = compile_model(model)
+    >>> Q = model.sample_configurations(5000, np.random.default_rng(0))
+    >>> bool(np.abs(poe.fk(Q) - poe.fk_reference(Q)).max() < 1e-12)
+    True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..spatial.transforms import inverse_transform
+from . import compiled
+from .buffers import result_array
+
+#: Configurations per chunk of the compiled kernels (a chunk's frames stay in L2).
+CHUNK_SIZE = compiled.CHUNK
+#: Plans (per list of requested links) kept per model.
+PLAN_CACHE_SIZE = 256
+#: An axis whose other components are at most this is taken as ± that coordinate axis
+#: when building the axis frames (an exact signed permutation; the error is below this).
+AXIS_ALIGNED_EPS = 1e-16
+
+_REFERENCE_CODES = {"world": compiled.REF_WORLD, "local_world_aligned": compiled.REF_LOCAL_WORLD_ALIGNED,
+                    "local": compiled.REF_LOCAL}
+
+
+def _axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """A frame ``G`` (4x4) with origin ``r`` and z axis ``w`` (unit); exact for coordinate axes."""
+    G = np.eye(4)
+    G[:3, 3] = r
+    k = int(np.argmax(np.abs(w)))
+    others = np.delete(np.abs(w), k)
+    if others.max() <= AXIS_ALIGNED_EPS:  # ± a coordinate axis: a signed permutation
+        sign = 1.0 if w[k] > 0 else -1.0
+        z = np.zeros(3)
+        z[k] = sign
+        x = np.zeros(3)
+        x[(k + 1) % 3] = 1.0
+        y = np.cross(z, x)
+    else:
+        e = np.zeros(3)
+        e[int(np.argmin(np.abs(w)))] = 1.0
+        x = np.cross(e, w)
+        x /= np.linalg.norm(x)
+        z = w / np.linalg.norm(w)
+        y = np.cross(z, x)
+    G[:3, 0], G[:3, 1], G[:3, 2] = x, y, z
+    return G
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What the compiled FK kernel computes for a list of output links."""
+
+    order: np.ndarray  # (m,) int64 joints to compute, parents first
+    lj: np.ndarray  # (L',) int64 per output: the joint frame it hangs from (-1: a constant pose)
+    pose: np.ndarray  # (L', 4, 4) per output: the constant right factor (G_j^-1 M_L, or M_L)
+
+
+class Kernel:
+    """What the compiled kernels need of a :class:`~kinematics.engine.poe.PoEModel` (immutable).
+
+    Attributes (n moving joints, L links):
+        G: (n, 4, 4) the axis frames at q = 0 (z along the joint axis, origin on it).
+        CZ: (n, 4, 4) ``G_parent^-1 G_j`` (``G_j`` at the root), the constant step of each joint.
+        D4: (L, 4, 4) ``G_j^-1 M_L``, the constant right factor of each link's pose (zeros for
+            links above every moving joint).
+        dfs: the moving joints in depth-first order.
+    """
+
+    def __init__(self, poe):
+        self.poe = poe
+        n = len(poe.joint_names)
+        L = len(poe.link_names)
+        self.n, self.L = n, L
+        G = np.array([_axis_frame(poe.w[j], poe.r[j]) for j in range(n)]).reshape(n, 4, 4)
+        CZ = np.empty((n, 4, 4))
+        for j in range(n):
+            p = poe.parent[j]
+            CZ[j] = G[j] if p < 0 else inverse_transform(G[p]) @ G[j]
+        D4 = np.zeros((L, 4, 4))
+        for li in range(L):
+            j = poe.link_joint[li]
+            if j >= 0:
+                D4[li] = inverse_transform(G[j]) @ poe.M[li]
+        self.G, self.CZ, self.D4 = G, CZ, D4
+        children: list[list[int]] = [[] for _ in range(n)]
+        roots = []
+        for j in range(n):  # parents precede children in PoEModel order
+            p = poe.parent[j]
+            (roots if p < 0 else children[p]).append(j)
+        dfs: list[int] = []
+        stack = list(reversed(roots))
+        while stack:
+            j = stack.pop()
+            dfs.append(j)
+            stack.extend(reversed(children[j]))
+        self.dfs = tuple(dfs)
+        # the compiled kernels' joint tables (see kinematics.compiled)
+        jint = np.zeros((n, 3), dtype=np.int64)
+        jint[:, compiled.J_QINDEX] = poe.q_index
+        jint[:, compiled.J_KIND] = poe.kind
+        jint[:, compiled.J_PARENT] = poe.parent
+        jflt = np.zeros((n, 14))
+        jflt[:, compiled.J_MULT] = poe.multiplier
+        jflt[:, compiled.J_OFFSET] = poe.offset
+        jflt[:, compiled.J_CZ:] = CZ[:, :3, :].reshape(n, 12)
+        self._jint, self._jflt = jint, jflt
+        self._plans: dict[tuple[int, ...] | None, _Plan] = {}
+        self._plan_all = self.plan(None)
+        self._jplans: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for a in (jint, jflt, G, CZ, D4):
+            a.setflags(write=False)
+
+    # ------------------------------------------------------------------ FK
+    def plan(self, link_idx: np.ndarray | None) -> _Plan:
+        """The plan for output links ``link_idx`` (None: every link, in order)."""
+        key = None if link_idx is None else tuple(int(i) for i in link_idx)
+        plan = self._plans.get(key)
+        if plan is not None:
+            return plan
+        poe = self.poe
+        idx = np.arange(self.L) if link_idx is None else np.asarray(link_idx, dtype=np.intp)
+        needed = np.zeros(self.n, dtype=bool)
+        for li in idx:
+            j = int(poe.link_joint[li])
+            while j >= 0 and not needed[j]:
+                needed[j] = True
+                j = int(poe.parent[j])
+        order = np.array([j for j in self.dfs if needed[j]], dtype=np.int64)
+        lj = np.array([poe.link_joint[li] for li in idx], dtype=np.int64).reshape(len(idx))
+        pose = np.array([self.D4[li] if poe.link_joint[li] >= 0 else poe.M[li] for li in idx]).reshape(len(idx), 4, 4)
+        plan = _Plan(order=order, lj=lj, pose=pose)
+        for a in (order, lj, pose):
+            a.setflags(write=False)
+        if len(self._plans) < PLAN_CACHE_SIZE:  # bounded cache; a plan is immutable
+            self._plans[key] = plan
+        return plan
+
+    def fk(self, Q: np.ndarray, link_idx: np.ndarray | None = None, out: np.ndarray | None = None,
+           chunk: int = CHUNK_SIZE) -> np.ndarray:
+        """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof).
+
+        One call of the compiled kernel (:func:`kinematics.engine.compiled.fk`) whatever N: a single
+        configuration takes the same arithmetic as a row of a batch, bit for bit.
+        """
+        N = Q.shape[0]
+        plan = self._plan_all if link_idx is None else self.plan(link_idx)
+        n_out = plan.lj.shape[0]
+        if out is None:
+            out = result_array((N, n_out, 4, 4))
+        if N:
+            Q = np.ascontiguousarray(Q, dtype=np.float64)
+            compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, plan.pose, out.reshape(N, n_out, 16),
+                        max(1, min(chunk, N)))
+        return out
+
+    # ------------------------------------------------------------------ Jacobians
+    def path(self, link_index: int) -> np.ndarray:
+        """Moving joints from the root to link ``link_index``, root first: (k,) int64."""
+        out = []
+        j = int(self.poe.link_joint[link_index])
+        while j >= 0:
+            out.append(j)
+            j = int(self.poe.parent[j])
+        return np.array(out[::-1], dtype=np.int64)
+
+    def jacobian(self, Q: np.ndarray, link_index: int, reference: str, chunk: int = CHUNK_SIZE) -> np.ndarray:
+        """Jacobian (N, 6, dof) of link ``link_index``, linear rows first, in ``reference``.
+
+        ``reference``: ``world`` (twist at the world origin, world axes), ``local_world_aligned``
+        (velocity of the link origin and angular velocity, world axes) or ``local`` (the same in
+        the link's axes); the caller has validated it.
+        """
+        N = Q.shape[0]
+        J = np.zeros((N, 6, Q.shape[1]))
+        jp = self._jplans.get(link_index)
+        if jp is None:
+            jp = (self.path(link_index), np.ascontiguousarray(self.D4[link_index]))
+            for a in jp:
+                a.setflags(write=False)
+            if len(self._jplans) < PLAN_CACHE_SIZE:
+                self._jplans[link_index] = jp
+        path, D = jp
+        if N and len(path):
+            Q = np.ascontiguousarray(Q, dtype=np.float64)
+            compiled.jacobian(Q, self._jint, self._jflt, path, D, _REFERENCE_CODES[reference], J, max(1, min(chunk, N)))
+        return J

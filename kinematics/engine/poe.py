@@ -1,0 +1,272 @@
+"""Product-of-exponentials forward kinematics and Jacobians, vectorised over batches.
+
+``PoEModel`` is the compiled form of a :class:`~kinematics.model.RobotModel`: at q = 0 it
+reads, for every moving joint ``j`` (mimic joints included), the space screw
+``S_j = (w_j, v_j)`` with ``v_j = -w_j x r_j`` (revolute, continuous) or ``(0, axis_j)``
+(prismatic), and for every link ``L`` its home pose ``M_L = T_world_L(0)``. Then
+
+    T_world_L(q) = exp([S_1] q_1) ... exp([S_k] q_k) M_L
+
+over the moving joints on the path from the root to ``L``. In a tree the prefix products
+``P_j = P_parent(j) exp([S_j] q_j)`` are shared by every link below joint ``j``, so each
+exponential and each product is computed once per configuration.
+
+``fk`` and ``jacobian`` run the compiled kernels (:mod:`kinematics.engine.compiled`, with
+the constants of :mod:`kinematics.engine.plans`). The straightforward implementation --
+stacked ``(N, 4, 4)`` products, exactly the formulas above -- stays here as
+``fk_reference`` and ``jacobian_reference``, the definition the kernels are tested against
+(to 1e-12, every catalogue model).
+
+Jacobians are 6 x dof, **linear rows first**, in one of three references (Pinocchio's
+meaning): ``world``, ``local``, ``local_world_aligned``.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import KinematicsError, UnknownLinkError
+from ..model.robot import RobotModel
+from ..spatial.reference import Reference
+from ..spatial.transforms import exp_screws
+from .compiled import PRISMATIC, REVOLUTE
+from .plans import Kernel
+
+
+@dataclass(frozen=True, eq=False)
+class PoEModel:
+    """Compiled PoE parameters of a model (immutable; safe to share between threads).
+
+    Attributes (n = number of moving joints including mimic joints, in topological order):
+        model: the source model.
+        joint_names: names of the n moving joints.
+        kind: (n,) REVOLUTE or PRISMATIC.
+        w: (n, 3) unit axes in the world frame at q = 0 (prismatic: the direction).
+        r: (n, 3) a point on each revolute axis (prismatic: zeros).
+        S: (n, 6) space screws ``(w, v)``, angular first (Modern Robotics order).
+        parent: (n,) index of the nearest moving ancestor joint, -1 at the root.
+        q_index: (n,) column of q that drives the joint (the leader's for a mimic).
+        multiplier, offset: (n,) joint value = multiplier * q[q_index] + offset.
+        link_names: every link, document order.
+        M: (L, 4, 4) home poses.
+        link_joint: (L,) index of the last moving joint on the link's path, -1 if none.
+    """
+
+    model: RobotModel
+    joint_names: tuple[str, ...]
+    kind: np.ndarray
+    w: np.ndarray
+    r: np.ndarray
+    S: np.ndarray
+    parent: np.ndarray
+    q_index: np.ndarray
+    multiplier: np.ndarray
+    offset: np.ndarray
+    link_names: tuple[str, ...]
+    M: np.ndarray
+    link_joint: np.ndarray
+
+    @property
+    def dof(self) -> int:
+        return self.model.dof
+
+    @classmethod
+    def from_model(cls, model: RobotModel) -> "PoEModel":
+        T_home: dict[str, np.ndarray] = {model.root: np.eye(4)}
+        last_moving: dict[str, int] = {model.root: -1}
+        names, kind, w, r, parent, qi, mult, off = [], [], [], [], [], [], [], []
+        for link in model.topological_links():
+            for j in model.children[link]:
+                T_joint = T_home[link] @ j.origin  # T_world_jointframe at q = 0
+                T_home[j.child] = T_joint
+                if not j.moving:
+                    last_moving[j.child] = last_moving[link]
+                    continue
+                axis_world = T_joint[:3, :3] @ j.axis
+                names.append(j.name)
+                kind.append(PRISMATIC if j.type == "prismatic" else REVOLUTE)
+                w.append(axis_world)
+                r.append(T_joint[:3, 3] if j.type != "prismatic" else np.zeros(3))
+                parent.append(last_moving[link])
+                resolved = model.resolve_mimic(j)
+                if resolved is None:
+                    qi.append(model.q_index[j.name]); mult.append(1.0); off.append(0.0)
+                else:
+                    leader, m, o = resolved
+                    qi.append(model.q_index[leader]); mult.append(m); off.append(o)
+                last_moving[j.child] = len(names) - 1
+        n = len(names)
+        w_a = np.array(w, dtype=float).reshape(n, 3)
+        r_a = np.array(r, dtype=float).reshape(n, 3)
+        kind_a = np.array(kind, dtype=np.int8)
+        S = np.zeros((n, 6))
+        rev = kind_a == REVOLUTE
+        S[rev, :3] = w_a[rev]
+        S[rev, 3:] = -np.cross(w_a[rev], r_a[rev])
+        S[~rev, 3:] = w_a[~rev]
+        arrays = dict(
+            kind=kind_a, w=w_a, r=r_a, S=S,
+            parent=np.array(parent, dtype=np.intp), q_index=np.array(qi, dtype=np.intp),
+            multiplier=np.array(mult, dtype=float), offset=np.array(off, dtype=float),
+            M=np.array([T_home[l] for l in model.links]).reshape(len(model.links), 4, 4),
+            link_joint=np.array([last_moving[l] for l in model.links], dtype=np.intp),
+        )
+        for a in arrays.values():
+            a.setflags(write=False)
+        return cls(model=model, joint_names=tuple(names), link_names=model.links, **arrays)
+
+    # ------------------------------------------------------------------ helpers
+    def link_indices(self, links: Sequence[str] | None) -> np.ndarray:
+        """Indices of ``links`` (None: every link); unknown names raise :class:`UnknownLinkError`."""
+        if links is None:
+            return np.arange(len(self.link_names))
+        index = self.model_link_index
+        out = []
+        for name in links:
+            if name not in index:
+                raise UnknownLinkError(f"unknown link {name!r} (model {self.model.name!r} has {len(index)} links)")
+            out.append(index[name])
+        return np.array(out, dtype=np.intp)
+
+    @cached_property
+    def model_link_index(self) -> dict[str, int]:
+        """Index of each link name in ``link_names``."""
+        return {n: i for i, n in enumerate(self.link_names)}
+
+    def joint_values(self, Q: np.ndarray) -> np.ndarray:
+        """Values (N, n) of every moving joint (mimic joints included) from q (N, dof)."""
+        return Q[:, self.q_index] * self.multiplier + self.offset
+
+    def joint_exponentials(self, theta: np.ndarray) -> np.ndarray:
+        """``exp([S_j] theta_j)`` for every moving joint: (N, n, 4, 4)."""
+        return exp_screws(self.w, self.r, self.kind == REVOLUTE, theta)
+
+    def prefix_products(self, Q: np.ndarray) -> np.ndarray:
+        """``P_j = exp([S_1]q_1) ... exp([S_j]q_j)`` along each joint's path: (N, n, 4, 4)."""
+        E = self.joint_exponentials(self.joint_values(Q))
+        P = np.empty_like(E)
+        for j in range(E.shape[1]):  # loop over joints, never over configurations
+            p = self.parent[j]
+            P[:, j] = E[:, j] if p < 0 else P[:, p] @ E[:, j]
+        return P
+
+    # ------------------------------------------------------------------ fast kernels
+    @cached_property
+    def kernel(self) -> Kernel:
+        """What the compiled kernels read of this model (:class:`~kinematics.engine.plans.Kernel`)."""
+        return Kernel(self)
+
+    def fk(self, Q: np.ndarray, links: Sequence[str] | None = None, out: np.ndarray | None = None) -> np.ndarray:
+        """Poses ``T_world_link`` of ``links`` (default all) for a batch q (N, dof): (N, L, 4, 4).
+
+        ``out`` (optional, float64 C-contiguous of that shape) receives the result, so a caller
+        can reuse one buffer across calls. Same result as :meth:`fk_reference` (to ~1e-15).
+        """
+        if type(Q) is not np.ndarray or Q.dtype != np.float64:
+            Q = np.asarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
+        idx = None if links is None else self.link_indices(links)
+        if out is not None:
+            n_out = len(self.link_names) if idx is None else len(idx)
+            if out.shape != (Q.shape[0], n_out, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
+                raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
+        return self.kernel.fk(Q, idx, out=out)
+
+    def jacobian(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+        """Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``.
+
+        Same result as :meth:`jacobian_reference` (to ~1e-15).
+        """
+        reference = _reference(reference)
+        li = int(self.link_indices([link])[0])
+        Q = np.asarray(Q, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
+        return self.kernel.jacobian(Q, li, reference)
+
+    # ------------------------------------------------------------------ FK (reference)
+    def fk_reference(self, Q: np.ndarray, links: Sequence[str] | None = None) -> np.ndarray:
+        """Reference FK: poses of ``links`` (default all) for q (N, dof) by stacked 4x4 products."""
+        idx = self.link_indices(links)
+        Q = np.asarray(Q, dtype=float)
+        P = self.prefix_products(Q)
+        out = np.empty((Q.shape[0], len(idx), 4, 4))
+        for k, li in enumerate(idx):
+            j = self.link_joint[li]
+            out[:, k] = self.M[li] if j < 0 else P[:, j] @ self.M[li]
+        return out
+
+    # ------------------------------------------------------------------ Jacobians (reference)
+    def path_mask(self, link_index: int) -> np.ndarray:
+        """Boolean (n,) mask of the moving joints on the path from the root to the link."""
+        mask = np.zeros(len(self.joint_names), dtype=bool)
+        j = self.link_joint[link_index]
+        while j >= 0:
+            mask[j] = True
+            j = self.parent[j]
+        return mask
+
+    def jacobian_reference(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+        """Reference Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``."""
+        reference = _reference(reference)
+        li = int(self.link_indices([link])[0])
+        Q = np.asarray(Q, dtype=float)
+        N = Q.shape[0]
+        P = self.prefix_products(Q)
+        jl = self.link_joint[li]
+        T_L = np.broadcast_to(self.M[li], (N, 4, 4)) if jl < 0 else P[:, jl] @ self.M[li]
+        J = np.zeros((N, 6, self.dof))
+        for j in np.flatnonzero(self.path_mask(li)):
+            p = self.parent[j]
+            if p < 0:
+                ang = np.broadcast_to(self.S[j, :3], (N, 3))
+                lin = np.broadcast_to(self.S[j, 3:], (N, 3))
+            else:
+                R = P[:, p, :3, :3]
+                t = P[:, p, :3, 3]
+                ang = R @ self.S[j, :3]
+                lin = R @ self.S[j, 3:] + np.cross(t, ang)
+            J[:, :3, self.q_index[j]] += self.multiplier[j] * lin
+            J[:, 3:, self.q_index[j]] += self.multiplier[j] * ang
+        if reference == Reference.WORLD:
+            return J
+        p_L = T_L[:, :3, 3]
+        # velocity of the link origin: v_o + w x p_L
+        J[:, :3, :] += np.cross(J[:, 3:, :], p_L[:, :, None], axisa=1, axisb=1, axisc=1)
+        if reference == Reference.LOCAL_WORLD_ALIGNED:
+            return J
+        Rt = np.swapaxes(T_L[:, :3, :3], 1, 2)
+        return np.concatenate([Rt @ J[:, :3, :], Rt @ J[:, 3:, :]], axis=1)
+
+
+def _reference(reference: str) -> Reference:
+    try:
+        return Reference(reference)
+    except ValueError:
+        expected = ", ".join(r.value for r in Reference)
+        raise KinematicsError(f"unknown reference {reference!r}; expected one of {expected}") from None
+
+
+#: compiled forms by model object: a model is immutable, so its compiled form is built once
+#: and lives as long as the model does (a weak key: dropping the model drops it)
+_compiled: "weakref.WeakKeyDictionary[RobotModel, PoEModel]" = weakref.WeakKeyDictionary()
+_compiled_lock = threading.Lock()
+
+
+def compile_model(model: RobotModel) -> PoEModel:
+    """The compiled PoE form of ``model``, built once per model object (thread-safe)."""
+    poe = _compiled.get(model)
+    if poe is None:
+        with _compiled_lock:
+            poe = _compiled.get(model)
+            if poe is None:
+                poe = PoEModel.from_model(model)
+                _compiled[model] = poe
+    return poe

@@ -1,0 +1,138 @@
+"""The bundled catalogue: every URDF of ``example-robot-data`` plus the DH presets shipped in
+``kinematics/io/presets/`` (package data: an installed wheel has them).
+
+Ids are short, readable and stable: the file's stem, lower-cased, with ``_robot`` dropped
+(``ur5_robot.urdf`` -> ``ur5``) and a few explicit names where stems collide
+(:data:`ID_OVERRIDES`). Entries are listed cheaply; a model is parsed on first use and
+then cached (models are immutable, so the cache is shared by every thread).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sysconfig
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import UnknownModelError
+from ..model.robot import RobotModel
+from .dh_table import load_table, model_from_table
+from .urdf import load_urdf
+
+#: ids for files whose stems collide or read badly; keys are paths under ``robots/``
+ID_OVERRIDES = {
+    "anymal_b_simple_description/robots/anymal.urdf": "anymal_b",
+    "anymal_b_simple_description/robots/anymal-kinova.urdf": "anymal_b_kinova",
+    "anymal_c_simple_description/urdf/anymal.urdf": "anymal_c",
+    "asr_twodof_description/urdf/TwoDofs.urdf": "asr_twodof",
+    "ur_description/urdf/ur3.urdf": "ur3_unnamed",
+    "alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf": "alexander_v1_lower_body",
+    "hector_description/robots/quadrotor_base.urdf": "hector_quadrotor",
+    "g1_description/urdf/g1_29dof_rev_1_0.urdf": "g1_29dof",
+    "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf": "g1_29dof_with_hand",
+}
+
+#: where the DH presets live (overridable with KIN_MODELS_DIR)
+DEFAULT_PRESETS_DIR = Path(__file__).resolve().parent / "presets"
+
+
+def example_robot_data_dir() -> Path | None:
+    """``.../cmeel.prefix/share/example-robot-data/robots`` of the installed package, if any."""
+    candidates = []
+    for key in ("purelib", "platlib"):
+        candidates.append(Path(sysconfig.get_paths()[key]) / "cmeel.prefix/share/example-robot-data/robots")
+    try:  # the package also knows its own path
+        import example_robot_data  # noqa: F401
+
+        candidates.append(Path(example_robot_data.getModelPath("ur_description/urdf/ur5_robot.urdf")) / "robots")
+    except Exception:  # noqa: BLE001 - optional convenience only
+        pass
+    for c in candidates:
+        if c.is_dir():
+            return c
+    return None
+
+
+def _make_id(rel: str) -> str:
+    if rel in ID_OVERRIDES:
+        return ID_OVERRIDES[rel]
+    stem = Path(rel).stem.lower()
+    stem = re.sub(r"[^a-z0-9]+", "_", stem).strip("_")
+    return re.sub(r"_robot$", "", stem)
+
+
+@dataclass(frozen=True)
+class CatalogueEntry:
+    """One bundled model: where it comes from and how to build it."""
+
+    id: str
+    name: str
+    source: str  # "example-robot-data" | "preset"
+    path: Path
+
+    def load(self) -> RobotModel:
+        if self.source == "preset":
+            return model_from_table(load_table(self.path))
+        return load_urdf(self.path)
+
+
+class Catalogue:
+    """The bundled models, listed at construction and built lazily (thread-safe)."""
+
+    def __init__(self, robots_dir: Path | None = None, presets_dir: Path | None = None):
+        self.entries: dict[str, CatalogueEntry] = {}
+        robots_dir = robots_dir if robots_dir is not None else example_robot_data_dir()
+        if robots_dir is not None:
+            for path in sorted(Path(robots_dir).rglob("*.urdf")):
+                rel = path.relative_to(robots_dir).as_posix()
+                eid = _make_id(rel)
+                if eid in self.entries:
+                    raise RuntimeError(f"catalogue id collision: {eid!r} ({rel} and {self.entries[eid].path})")
+                self.entries[eid] = CatalogueEntry(eid, path.stem, "example-robot-data", path)
+        if presets_dir is None:
+            presets_dir = Path(os.environ.get("KIN_MODELS_DIR", DEFAULT_PRESETS_DIR))
+        if Path(presets_dir).is_dir():
+            for path in sorted(Path(presets_dir).glob("*.y*ml")) + sorted(Path(presets_dir).glob("*.json")):
+                eid = _make_id(path.name)
+                if eid in self.entries:
+                    raise RuntimeError(f"catalogue id collision: preset {path.name} and {self.entries[eid].path}")
+                self.entries[eid] = CatalogueEntry(eid, path.stem, "preset", path)
+        self._models: dict[str, RobotModel] = {}
+        self._lock = threading.Lock()
+
+    def ids(self) -> list[str]:
+        return list(self.entries)
+
+    def __contains__(self, model_id: str) -> bool:
+        return model_id in self.entries
+
+    def entry(self, model_id: str) -> CatalogueEntry:
+        try:
+            return self.entries[model_id]
+        except KeyError:
+            raise UnknownModelError(f"unknown model {model_id!r}") from None
+
+    def get(self, model_id: str) -> RobotModel:
+        """The model of ``model_id``, parsed on first use (raises UnknownModelError, URDFError)."""
+        model = self._models.get(model_id)
+        if model is None:
+            entry = self.entry(model_id)
+            with self._lock:
+                model = self._models.get(model_id)
+                if model is None:
+                    model = entry.load()
+                    self._models[model_id] = model
+        return model
+
+
+_default: Catalogue | None = None
+
+
+def default_catalogue() -> Catalogue:
+    """The process-wide catalogue (built on first call)."""
+    global _default
+    if _default is None:
+        _default = Catalogue()
+    return _default

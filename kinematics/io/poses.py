@@ -1,0 +1,78 @@
+"""Poses given as data (a request's base pose): validated into 4x4 rigid transforms.
+
+The world frame is the root link's frame unless a base pose ``T_world_root`` is given (for
+robots whose base moves or is mounted); :mod:`kinematics.algorithms.base` re-expresses FK
+and Jacobians in that world. A base pose is a 4x4 matrix (nested lists), ``{"xyz": [x, y, z], "rpy": [r, p, y]}`` (URDF
+roll-pitch-yaw) or ``{"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}`` (unit); for a
+batch, either one pose for every configuration or a list with one pose per configuration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import BasePoseError
+from ..spatial.rotations import quaternion_to_matrix, rpy_to_matrix
+from ..spatial.transforms import is_rigid_transform, make_transform
+from ..tolerances import MAX_ABS_COORDINATE, RIGID_TOLERANCE
+
+
+def _vector(value, n: int, where: str) -> np.ndarray:
+    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or len(value) != n:
+        raise BasePoseError(f"{where}: expected {n} numbers, got {value!r}")
+    try:
+        v = np.array([float(x) for x in value])
+    except (TypeError, ValueError):
+        raise BasePoseError(f"{where}: {value!r} is not a list of numbers") from None
+    if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_ABS_COORDINATE):
+        raise BasePoseError(f"{where}: {value!r} has a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
+    return v
+
+
+def _one_pose(value, where: str) -> np.ndarray:
+    if isinstance(value, Mapping):
+        keys = set(value)
+        if keys == {"xyz", "rpy"}:
+            return make_transform(rpy_to_matrix(_vector(value["rpy"], 3, f"{where}.rpy")),
+                                  _vector(value["xyz"], 3, f"{where}.xyz"))
+        if keys == {"position", "quaternion"}:
+            quat = value["quaternion"]
+            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
+                raise BasePoseError(f"{where}.quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
+            w, x, y, z = _vector([quat["w"], quat["x"], quat["y"], quat["z"]], 4, f"{where}.quaternion")
+            norm = np.sqrt(w * w + x * x + y * y + z * z)
+            if abs(norm - 1.0) > RIGID_TOLERANCE:
+                raise BasePoseError(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
+            R = quaternion_to_matrix(*(np.array([w, x, y, z]) / norm))
+            return make_transform(R, _vector(value["position"], 3, f"{where}.position"))
+        raise BasePoseError(
+            f"{where}: expected {{\"xyz\", \"rpy\"}}, {{\"position\", \"quaternion\"}} or a 4x4 matrix, "
+            f"got the keys {sorted(map(str, keys))}"
+        )
+    if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 4:
+        T = np.array([_vector(row, 4, f"{where}[{i}]") for i, row in enumerate(value)])
+        if not is_rigid_transform(T, RIGID_TOLERANCE):
+            raise BasePoseError(f"{where}: not a rigid transform (rotation orthonormal with det 1, last row 0 0 0 1)")
+        return T
+    raise BasePoseError(f"{where}: expected a pose, got {value!r}")
+
+
+def _is_pose_list(value) -> bool:
+    """A list of poses (as opposed to one 4x4 matrix, whose items are rows of numbers)."""
+    return (isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) > 0
+            and all(isinstance(v, Mapping) or (isinstance(v, Sequence) and not isinstance(v, (str, bytes))
+                                               and len(v) > 0 and not isinstance(v[0], (int, float)))
+                    for v in value))
+
+
+def base_poses(value, n: int) -> np.ndarray | None:
+    """``T_world_root`` for each of ``n`` configurations: (n, 4, 4), or None when no base is given."""
+    if value is None:
+        return None
+    if _is_pose_list(value):
+        if len(value) != n:
+            raise BasePoseError(f"base: {len(value)} poses given for {n} configurations (give one, or one each)")
+        return np.stack([_one_pose(v, f"base[{i}]") for i, v in enumerate(value)])
+    return np.broadcast_to(_one_pose(value, "base"), (n, 4, 4))

@@ -1,0 +1,23 @@
+"""Tolerances and bounds shared by every layer of the library (one name for each).
+
+They are numbers the product promises or relies on; a module that needs one imports it
+from here rather than writing the literal again.
+"""
+
+from __future__ import annotations
+
+#: The agreement the product promises with the reference (Pinocchio) and with the closed
+#: forms: metres for positions, plain numbers for rotation and Jacobian entries.
+AGREEMENT_TOLERANCE = 1e-9
+#: Joint values within this distance of a limit count as inside it.
+LIMIT_TOLERANCE = 1e-12
+#: How far a given rotation may be from orthonormal (or a quaternion from unit length)
+#: before a pose in a request or a table is refused as not rigid.
+RIGID_TOLERANCE = 1e-6
+#: Largest magnitude of a coordinate in a description (metres, radians, multipliers).
+MAX_ABS_COORDINATE = 1e6
+#: Largest magnitude of a joint value (radians or metres): far beyond any joint, small
+#: enough that no FK product or Jacobian overflows to inf.
+MAX_ABS_JOINT_VALUE = 1e6
+#: Below this norm an axis is treated as zero (and refused by the parsers).
+AXIS_EPS = 1e-12

@@ -1,0 +1,186 @@
+"""Cross-check against Pinocchio: the only module of the library that imports it (an
+import contract checks that).
+
+Builds the Pinocchio model from the same URDF text (``mimic=True``), maps our q to
+Pinocchio's (a continuous joint is ``(cos, sin)`` there; a mimic joint has no entry),
+computes every link's pose (BODY frames) and the Jacobians, and reports the largest
+deviations from our PoE results.
+
+Pinocchio 4.1 refuses ``mimic=True`` on some catalogue files ("The parent joint of the
+mimic joint is not in the kinematic tree"): there the model is built without mimic, each
+mimic joint is set from its leader, and its Jacobian column is folded into the leader's.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..engine.poe import compile_model
+from ..errors import ReferenceUnavailableError
+from ..model.robot import RobotModel
+from ..spatial.reference import REFERENCES, Reference
+
+PINOCCHIO_VERSION = pin.__version__
+REFERENCE_NAME = f"pinocchio {PINOCCHIO_VERSION}"
+
+_REFERENCE_FRAMES = {
+    Reference.WORLD: pin.ReferenceFrame.WORLD,
+    Reference.LOCAL: pin.ReferenceFrame.LOCAL,
+    Reference.LOCAL_WORLD_ALIGNED: pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+}
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """Largest absolute deviations between our results and Pinocchio's."""
+
+    max_position_error: float
+    max_rotation_error: float
+    max_jacobian_error: float | None = None
+    reference: str = REFERENCE_NAME
+
+    @property
+    def worst(self) -> float:
+        return max(self.max_position_error, self.max_rotation_error, self.max_jacobian_error or 0.0)
+
+
+class PinocchioReference:
+    """Pinocchio's view of one of our models (build once, then call from any thread)."""
+
+    def __init__(self, model: RobotModel):
+        self.model = model
+        self.mimic_native = True
+        try:
+            self.pin_model = pin.buildModelFromXML(model.urdf, mimic=True)
+        except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
+            try:
+                self.pin_model = pin.buildModelFromXML(model.urdf, mimic=False)
+                self.mimic_native = False
+            except Exception:
+                raise ReferenceUnavailableError(f"Pinocchio cannot load model {model.name!r}: {exc}") from None
+        pm = self.pin_model
+        self._lock = threading.Lock()
+        self._data = threading.local()
+        # our joint -> (idx_q, idx_v, kind) in Pinocchio; only joints with their own entry
+        self.q_map: list[tuple[int, int, str, str]] = []  # (idx_q, idx_v, type, our joint name)
+        for jid in range(1, pm.njoints):
+            name = pm.names[jid]
+            if name not in model.joint_map:
+                continue
+            jm = pm.joints[jid]
+            if jm.nq == 0:  # a native mimic joint
+                continue
+            self.q_map.append((jm.idx_q, jm.idx_v, model.joint_map[name].type, name))
+        self.frame_ids: dict[str, int] = {}
+        for fid, fr in enumerate(pm.frames):
+            if fr.type == pin.FrameType.BODY and fr.name in model.joint_map.keys() | set(model.links):
+                if fr.name in set(model.links) and fr.name not in self.frame_ids:
+                    self.frame_ids[fr.name] = fid
+        missing = [l for l in model.links if l not in self.frame_ids]
+        if missing:
+            raise ReferenceUnavailableError(f"Pinocchio has no BODY frame for links {missing[:5]}")
+
+    def data(self) -> pin.Data:
+        d = getattr(self._data, "d", None)
+        if d is None:
+            d = self.pin_model.createData()
+            self._data.d = d
+        return d
+
+    def to_pinocchio_q(self, q: np.ndarray) -> np.ndarray:
+        """Our q (dof,) -> Pinocchio's configuration vector (nq,)."""
+        m = self.model
+        values = {n: q[i] for i, n in enumerate(m.joint_names)}
+        for j in m.moving_joints:  # mimic values, used when Pinocchio has them as joints
+            r = m.resolve_mimic(j)
+            if r is not None:
+                values[j.name] = r[1] * values[r[0]] + r[2]
+        x = pin.neutral(self.pin_model)
+        for idx_q, _, jtype, name in self.q_map:
+            v = values[name]
+            if jtype == "continuous":
+                x[idx_q], x[idx_q + 1] = np.cos(v), np.sin(v)
+            else:
+                x[idx_q] = v
+        return x
+
+    def _fold_columns(self, Jp: np.ndarray) -> np.ndarray:
+        """Pinocchio Jacobian (6, nv) -> ours (6, dof), folding mimic columns into leaders."""
+        m = self.model
+        J = np.zeros((6, m.dof))
+        for _, idx_v, _, name in self.q_map:
+            joint = m.joint_map[name]
+            r = m.resolve_mimic(joint)
+            if r is None:
+                J[:, m.q_index[name]] += Jp[:, idx_v]
+            else:
+                J[:, m.q_index[r[0]]] += r[1] * Jp[:, idx_v]
+        return J
+
+    def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """Every link's pose for one configuration: {link: 4x4}."""
+        d = self.data()
+        pin.framesForwardKinematics(self.pin_model, d, self.to_pinocchio_q(q))
+        return {l: d.oMf[fid].homogeneous.copy() for l, fid in self.frame_ids.items()}
+
+    def jacobian(self, q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+        """Jacobian (6, dof) of ``link`` (linear rows first) in ``reference``."""
+        d = self.data()
+        x = self.to_pinocchio_q(q)
+        Jp = pin.computeFrameJacobian(self.pin_model, d, x, self.frame_ids[link], _REFERENCE_FRAMES[reference])
+        # eigenpy hands a 6x1 Jacobian (one-DOF model) back as shape (6,): restore the column
+        return self._fold_columns(np.asarray(Jp).reshape(6, -1))
+
+
+#: Pinocchio's view of each model object, built on first use (a weak key: it lives as long as the model)
+_references: "weakref.WeakKeyDictionary[RobotModel, PinocchioReference]" = weakref.WeakKeyDictionary()
+_ref_lock = threading.Lock()
+
+
+def reference_for(model: RobotModel) -> PinocchioReference:
+    """The (cached) Pinocchio reference of a model object."""
+    ref = _references.get(model)
+    if ref is None:
+        with _ref_lock:
+            ref = _references.get(model)
+            if ref is None:
+                ref = PinocchioReference(model)
+                _references[model] = ref
+    return ref
+
+
+def compare_fk(model: RobotModel, Q: np.ndarray, links=None, poses: np.ndarray | None = None) -> Deviation:
+    """Largest deviation of our FK of ``links`` (default all) from Pinocchio's over a batch Q."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    poe = compile_model(model)
+    links = list(model.links) if links is None else list(links)
+    ours = poe.fk(Q, links) if poses is None else poses
+    ref = reference_for(model)
+    pos_err = rot_err = 0.0
+    for n, q in enumerate(Q):
+        theirs = ref.poses(q)
+        for k, l in enumerate(links):
+            diff = ours[n, k] - theirs[l]
+            pos_err = max(pos_err, float(np.max(np.abs(diff[:3, 3]))))
+            rot_err = max(rot_err, float(np.max(np.abs(diff[:3, :3]))))
+    return Deviation(pos_err, rot_err)
+
+
+def compare_jacobian(model: RobotModel, Q: np.ndarray, link: str, references=REFERENCES, jacobians: dict | None = None) -> float:
+    """Largest entry-wise deviation of our Jacobians of ``link`` from Pinocchio's."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    poe = compile_model(model)
+    ref = reference_for(model)
+    err = 0.0
+    for reference in references:
+        ours = poe.jacobian(Q, link, reference) if jacobians is None else jacobians[reference]
+        for n, q in enumerate(Q):
+            theirs = ref.jacobian(q, link, reference)
+            if theirs.size:
+                err = max(err, float(np.max(np.abs(ours[n] - theirs))))
+    return err
