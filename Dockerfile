@@ -84,11 +84,10 @@ RUN (getent group kin || groupadd --gid 10001 kin) \
     && mkdir -p /data \
     && chown kin:kin /data
 COPY --from=build /opt/venv /opt/venv
-# DH presets of the textbook robots (the example-robot-data catalogue is inside the venv)
-COPY models /opt/kinematics/models
+# The DH presets of the textbook robots ship inside the package (kinematics/io/presets), and
+# the example-robot-data catalogue is inside the venv.
 ENV PATH=/opt/venv/bin:$PATH \
     KIN_DATA_DIR=/data \
-    KIN_MODELS_DIR=/opt/kinematics/models \
     PORT=8000 \
     WEB_CONCURRENCY=1
 VOLUME ["/data"]

@@ -1,7 +1,7 @@
 """The model registry: bundled catalogue + models stored in the data directory.
 
 The data directory is the source of truth for uploaded and DH-built models; what a
-process holds in memory is only a cache (``../shared/DESIGN.md``, "State"). So that
+process holds in memory is only a cache (``docs/design.md``, "State"). So that
 several workers or replicas sharing one directory behave as one service:
 
 * a lookup that misses the cache looks for the file (a model created by another process

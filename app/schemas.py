@@ -1,6 +1,6 @@
 """Wire schemas (pydantic): requests, responses and their OpenAPI examples.
 
-Field names follow ``../shared/DESIGN.md`` (the API contract). Matrices are row-major
+Field names follow the API contract (``docs/design.md``). Matrices are row-major
 nested lists; quaternions are objects ``{w, x, y, z}``; Jacobians are 6 x dof with the
 linear rows first. JSON has no infinity: a condition number at a singularity is ``null``.
 """

@@ -3,7 +3,7 @@ whole catalogue: FK of every link and the three Jacobians of every leaf link.
 
     python -m bench.agreement [--samples N]
 
-``tests/test_kernels.py`` asserts the same agreement (≤ 1e-12); this prints the figures.
+``tests/kinematics/engine/test_kernels.py`` asserts the same agreement (≤ 1e-12); this prints the figures.
 """
 
 from __future__ import annotations

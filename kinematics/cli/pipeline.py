@@ -115,7 +115,7 @@ def register(sub) -> None:
     models = sub.add_parser(
         "models",
         help="list the bundled catalogue",
-        description="List the catalogue: example-robot-data URDFs and the DH presets of models/.",
+        description="List the catalogue: example-robot-data URDFs and the DH presets shipped with the library.",
     )
     models.add_argument("ids", nargs="*", metavar="ID", help="only these models")
     models.add_argument("--dof", action="store_true", help="also load each model and show its dof, links and leaves (slower)")
@@ -216,12 +216,12 @@ def run_fk(args) -> int:
         return api.fk(model, Q, links=links)
 
     def verify(sampler) -> int:
-        from ..verify import pinocchio as crosscheck
+        from ..verify import pinocchio
 
-        dev = crosscheck.compare_fk(model, sampler.Q, links, poses=sampler.results)
+        dev = pinocchio.compare_fk(model, sampler.Q, links, poses=sampler.results)
         worst = max(dev.max_position_error, dev.max_rotation_error)
         print(f"fk: verify: {len(sampler.rows)} sampled configurations x {len(links)} links vs "
-              f"{crosscheck.REFERENCE_NAME}: max position error {dev.max_position_error:.3g} m, "
+              f"{pinocchio.REFERENCE_NAME}: max position error {dev.max_position_error:.3g} m, "
               f"max rotation error {dev.max_rotation_error:.3g}", file=sys.stderr)
         return _verdict("fk", worst)
 
@@ -240,12 +240,12 @@ def run_jacobian(args) -> int:
         return api.jacobian(model, Q, link=link, reference=args.reference)
 
     def verify(sampler) -> int:
-        from ..verify import pinocchio as crosscheck
+        from ..verify import pinocchio
 
-        err = crosscheck.compare_jacobian(model, sampler.Q, link, references=(args.reference,),
+        err = pinocchio.compare_jacobian(model, sampler.Q, link, references=(args.reference,),
                                           jacobians={args.reference: sampler.results})
         print(f"jacobian: verify: {len(sampler.rows)} sampled configurations, link {link!r}, reference "
-              f"{args.reference} vs {crosscheck.REFERENCE_NAME}: max entry error {err:.3g}", file=sys.stderr)
+              f"{args.reference} vs {pinocchio.REFERENCE_NAME}: max entry error {err:.3g}", file=sys.stderr)
         return _verdict("jacobian", err)
 
     return _stream(args, "jacobian", compute, model.joint_names, "jacobian", model, verify)

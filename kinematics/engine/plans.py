@@ -135,7 +135,7 @@ class Kernel:
             dfs.append(j)
             stack.extend(reversed(children[j]))
         self.dfs = tuple(dfs)
-        # the compiled kernels' joint tables (see kinematics.compiled)
+        # the compiled kernels' joint tables (see kinematics.engine.compiled)
         jint = np.zeros((n, 3), dtype=np.int64)
         jint[:, compiled.J_QINDEX] = poe.q_index
         jint[:, compiled.J_KIND] = poe.kind

@@ -1,6 +1,6 @@
 """The immutable kinematic model: links, joints and the order of q.
 
-A :class:`RobotModel` is built once (from URDF text by :mod:`kinematics.urdf`) and never
+A :class:`RobotModel` is built once (from URDF text by :mod:`kinematics.io.urdf`) and never
 changed afterwards; it is safe to share between threads. Its arrays are read-only.
 
 ``joint_names`` -- the order of q -- is the URDF document order of the moving joints
