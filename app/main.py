@@ -106,6 +106,12 @@ def _configure_logging(level: str) -> None:
         logger.addHandler(handler)
 
 
+#: response headers a browser page on another origin may read (the .npy answers' metadata)
+EXPOSED_HEADERS = ["Location", "X-Links", "X-Joint-Names", "X-Link", "X-Reference", "X-Out-Of-Limits",
+                   "X-Links-Omitted", "X-Joint-Names-Omitted", "X-Verification-Reference", "X-Max-Position-Error",
+                   "X-Max-Rotation-Error", "X-Max-Jacobian-Error"]
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service. ``settings`` default to the environment (``KIN_*``)."""
     settings = settings if settings is not None else Settings()
@@ -132,7 +138,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.openapi = _custom_openapi(app)
     if settings.cors_origins:
         app.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins, allow_methods=["*"],
-                           allow_headers=["*"], expose_headers=["X-Links", "X-Joint-Names", "X-Link", "Location"])
+                           allow_headers=["*"], expose_headers=EXPOSED_HEADERS)
     app.add_middleware(BodySizeLimit, limit=settings.max_request_bytes)
     return app
 

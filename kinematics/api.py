@@ -110,7 +110,7 @@ class FKAnswer(_Answer):
     verification: Verification | None = None
 
     def components(self) -> dict[str, np.ndarray]:
-        """Positions (N, L, 3), quaternions (N, L, 4, w first) and rpy (N, L, 3) of the poses."""
+        """``position`` (N, L, 3), ``quaternion`` (N, L, 4, w first) and ``rpy`` (N, L, 3) of the poses."""
         return pose_components(self.poses)
 
 

@@ -12,9 +12,12 @@ from ..schemas import Health
 
 router = APIRouter(tags=["health"])
 
+#: the reference library's version (read at import, so no request pays for importing it)
+REFERENCE_VERSION = reference_name().removeprefix("pinocchio ")
+
 
 @router.get("/health", response_model=Health)
 def health(registry: RegistryDep) -> Health:
     """Liveness: status, service version, Pinocchio version and the number of bundled models."""
-    return Health(version=kinematics.__version__, pinocchio_version=reference_name().removeprefix("pinocchio "),
+    return Health(version=kinematics.__version__, pinocchio_version=REFERENCE_VERSION,
                   bundled_models=len(registry.catalogue.ids()))

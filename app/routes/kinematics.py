@@ -74,7 +74,7 @@ def _split_names(values: list[str] | None):
 
 #: Requests of at most this many configurations are answered on the event loop: their work
 #: takes microseconds, and handing them to the thread pool costs a thread wake-up
-#: (0.1-0.4 ms here). Larger ones run in the thread pool, so the loop keeps serving.
+#: (bench/RESULTS.md has the figures). Larger ones run in the thread pool, so the loop keeps serving.
 INLINE_MAX_CONFIGURATIONS = 8
 
 

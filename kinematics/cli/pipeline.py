@@ -14,14 +14,13 @@ import os
 import sys
 import time
 
-import numpy as np
 
 from .. import api
 from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
 from ..io.trajectory import CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows
 from ..model.robot import RobotModel
-from ..spatial.reference import REFERENCES
+from ..spatial.reference import REFERENCES, Reference
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .progress import progress
@@ -108,7 +107,7 @@ def register(sub) -> None:
     )
     _model_options(jac)
     jac.add_argument("--link", metavar="NAME", help="the link (default: the model's first leaf link)")
-    jac.add_argument("--reference", choices=REFERENCES, default="world", help="reference frame (default world)")
+    jac.add_argument("--reference", choices=REFERENCES, default=Reference.WORLD.value, help="reference frame (default world)")
     _io_options(jac)
     jac.set_defaults(func=run_jacobian)
 

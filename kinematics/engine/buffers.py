@@ -40,7 +40,7 @@ def aligned_empty(shape: tuple[int, ...], align: int = CACHE_LINE) -> np.ndarray
     lines instead of two, and the per-link writes of the kernels touch each boundary line twice.
     """
     n = math.prod(shape)
-    if n < ALIGN_MIN_ELEMENTS:  # small: not worth the extra call (~2 µs)
+    if n < ALIGN_MIN_ELEMENTS:  # small: the extra call costs more than it saves
         return np.empty(shape)
     raw = np.empty(n + align // 8)
     start = (-raw.ctypes.data % align) // 8

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..spatial.reference import Reference
 from ..spatial.transforms import inverse_transform
 from . import compiled
 from .buffers import result_array
@@ -59,8 +60,8 @@ PLAN_CACHE_SIZE = 256
 #: when building the axis frames (an exact signed permutation; the error is below this).
 AXIS_ALIGNED_EPS = 1e-16
 
-_REFERENCE_CODES = {"world": compiled.REF_WORLD, "local_world_aligned": compiled.REF_LOCAL_WORLD_ALIGNED,
-                    "local": compiled.REF_LOCAL}
+_REFERENCE_CODES = {Reference.WORLD: compiled.REF_WORLD, Reference.LOCAL_WORLD_ALIGNED: compiled.REF_LOCAL_WORLD_ALIGNED,
+                    Reference.LOCAL: compiled.REF_LOCAL}
 
 
 def _axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:

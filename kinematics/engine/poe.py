@@ -19,12 +19,23 @@ stacked ``(N, 4, 4)`` products, exactly the formulas above -- stays here as
 
 Jacobians are 6 x dof, **linear rows first**, in one of three references (Pinocchio's
 meaning): ``world``, ``local``, ``local_world_aligned``.
+
+The 3R spatial open chain of Modern Robotics (Example 4.2, the notes ``002_*``), with
+``L1 = 0.6``, ``L2 = 0.4``: ``S_1 = (0,0,1; 0,0,0)``, ``S_2 = (0,-1,0; 0,0,-L1)``,
+``S_3 = (1,0,0; 0,-L2,0)`` and ``M = [[0,0,1,L1],[0,1,0,0],[-1,0,0,-L2]]``. Turning joint 2
+by π/2 swings the tool from ``(L1, 0, -L2)`` to ``(L1 + L2, 0, 0)``:
+
+>>> from kinematics.spatial.transforms import exp_screws
+>>> w = np.array([[0.0, 0, 1], [0, -1, 0], [1, 0, 0]])
+>>> r = np.array([[0.0, 0, 0], [0.6, 0, 0], [0, 0, -0.4]])  # a point on each axis
+>>> M = np.array([[0.0, 0, 1, 0.6], [0, 1, 0, 0], [-1, 0, 0, -0.4], [0, 0, 0, 1]])
+>>> E = exp_screws(w, r, np.array([True, True, True]), np.array([0.0, np.pi / 2, 0.0]))
+>>> (E[0] @ E[1] @ E[2] @ M)[:3, 3].round(12) + 0.0
+array([1., 0., 0.])
 """
 
 from __future__ import annotations
 
-import threading
-import weakref
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Sequence
@@ -32,6 +43,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import KinematicsError, UnknownLinkError
+from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.reference import Reference
 from ..spatial.transforms import exp_screws
@@ -179,7 +191,7 @@ class PoEModel:
                 raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
         return self.kernel.fk(Q, idx, out=out)
 
-    def jacobian(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+    def jacobian(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
         """Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``.
 
         Same result as :meth:`jacobian_reference` (to ~1e-15).
@@ -213,7 +225,7 @@ class PoEModel:
             j = self.parent[j]
         return mask
 
-    def jacobian_reference(self, Q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+    def jacobian_reference(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
         """Reference Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``."""
         reference = _reference(reference)
         li = int(self.link_indices([link])[0])
@@ -254,19 +266,10 @@ def _reference(reference: str) -> Reference:
         raise KinematicsError(f"unknown reference {reference!r}; expected one of {expected}") from None
 
 
-#: compiled forms by model object: a model is immutable, so its compiled form is built once
-#: and lives as long as the model does (a weak key: dropping the model drops it)
-_compiled: "weakref.WeakKeyDictionary[RobotModel, PoEModel]" = weakref.WeakKeyDictionary()
-_compiled_lock = threading.Lock()
+_compiled = PerModel(PoEModel.from_model)
 
 
 def compile_model(model: RobotModel) -> PoEModel:
-    """The compiled PoE form of ``model``, built once per model object (thread-safe)."""
-    poe = _compiled.get(model)
-    if poe is None:
-        with _compiled_lock:
-            poe = _compiled.get(model)
-            if poe is None:
-                poe = PoEModel.from_model(model)
-                _compiled[model] = poe
-    return poe
+    """The compiled PoE form of ``model``, built once per model object (thread-safe) and kept
+    as long as the model lives."""
+    return _compiled(model)

@@ -16,10 +16,6 @@ import numpy as np
 
 from ..spatial.transforms import pose_components
 
-#: The formats of :func:`pose_output`.
-POSE_FORMATS = ("pose", "matrix", "compact")
-
-
 def pose_output(T: np.ndarray, links: list[str], fmt: str = "pose", is_batch: bool = True):
     """``poses`` of an FK answer from ``T`` (N, L, 4, 4): a list of per-configuration maps
     (one map when ``is_batch`` is false), or for ``compact`` one map of per-link arrays.

@@ -48,7 +48,7 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+
 
 import numpy as np
 
@@ -194,7 +194,7 @@ class JointRows:
 
     # ------------------------------------------------------------------ CSV
     def _csv_chunks(self):
-        fh, model, dof = self._fh, self.model, self.model.dof
+        fh, model = self._fh, self.model
         line_no = 0
         first = None
         for line in fh:

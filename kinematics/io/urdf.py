@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import logging
 import math
 import xml.etree.ElementTree as ET
 from typing import Iterable
@@ -24,7 +23,6 @@ from ..errors import ModelTooLargeError, UnsupportedJointError, URDFError
 from ..model.robot import MOVING_TYPES, SUPPORTED_TYPES, Joint, Limits, Mimic, RobotModel, Visual, frozen_array
 from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE
 
-log = logging.getLogger(__name__)
 
 #: Default cap on the number of links (and of joints) in one model.
 DEFAULT_MAX_LINKS = 10_000

@@ -14,7 +14,6 @@ mimic joint is set from its leader, and its Jacobian column is folded into the l
 from __future__ import annotations
 
 import threading
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +21,7 @@ import pinocchio as pin
 
 from ..engine.poe import compile_model
 from ..errors import ReferenceUnavailableError
+from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.reference import REFERENCES, Reference
 
@@ -64,7 +64,6 @@ class PinocchioReference:
             except Exception:
                 raise ReferenceUnavailableError(f"Pinocchio cannot load model {model.name!r}: {exc}") from None
         pm = self.pin_model
-        self._lock = threading.Lock()
         self._data = threading.local()
         # our joint -> (idx_q, idx_v, kind) in Pinocchio; only joints with their own entry
         self.q_map: list[tuple[int, int, str, str]] = []  # (idx_q, idx_v, type, our joint name)
@@ -128,7 +127,7 @@ class PinocchioReference:
         pin.framesForwardKinematics(self.pin_model, d, self.to_pinocchio_q(q))
         return {l: d.oMf[fid].homogeneous.copy() for l, fid in self.frame_ids.items()}
 
-    def jacobian(self, q: np.ndarray, link: str, reference: str = "world") -> np.ndarray:
+    def jacobian(self, q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
         """Jacobian (6, dof) of ``link`` (linear rows first) in ``reference``."""
         d = self.data()
         x = self.to_pinocchio_q(q)
@@ -137,21 +136,12 @@ class PinocchioReference:
         return self._fold_columns(np.asarray(Jp).reshape(6, -1))
 
 
-#: Pinocchio's view of each model object, built on first use (a weak key: it lives as long as the model)
-_references: "weakref.WeakKeyDictionary[RobotModel, PinocchioReference]" = weakref.WeakKeyDictionary()
-_ref_lock = threading.Lock()
+_references = PerModel(PinocchioReference)
 
 
 def reference_for(model: RobotModel) -> PinocchioReference:
-    """The (cached) Pinocchio reference of a model object."""
-    ref = _references.get(model)
-    if ref is None:
-        with _ref_lock:
-            ref = _references.get(model)
-            if ref is None:
-                ref = PinocchioReference(model)
-                _references[model] = ref
-    return ref
+    """Pinocchio's view of a model object, built on first use and kept as long as the model lives."""
+    return _references(model)
 
 
 def compare_fk(model: RobotModel, Q: np.ndarray, links=None, poses: np.ndarray | None = None) -> Deviation:

@@ -12,7 +12,7 @@ from kinematics.algorithms.measures import conditioning
 from kinematics.spatial.transforms import pose_components
 from kinematics.verify.pinocchio import PINOCCHIO_VERSION, reference_for
 
-#: our PoE vs Pinocchio (DESIGN.md quality bar)
+#: our PoE vs Pinocchio (docs/design.md quality bar)
 PINOCCHIO_TOL = 1e-9
 #: JSON round trip of float64 (orjson writes the shortest repr, which reads back exactly)
 EXACT = 0.0

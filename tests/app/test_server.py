@@ -1,5 +1,5 @@
 """REST API over real uvicorn processes: restart on the same data directory, two servers and
-two workers sharing one data directory (DESIGN.md, "State")."""
+two workers sharing one data directory (docs/design.md, "State")."""
 
 from __future__ import annotations
 

@@ -48,4 +48,4 @@ def test_max_links_setting_reaches_the_parser(make_client):
              '<joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>'
              '<joint name="j2" type="fixed"><parent link="b"/><child link="c"/></joint></robot>')
     r = c.post("/models", content=three, headers={"content-type": "application/xml"})
-    assert r.status_code == 413 and "limit" in r.json()["detail"]  # DESIGN.md: over a limit, 413
+    assert r.status_code == 413 and "limit" in r.json()["detail"]  # docs/design.md: over a limit, 413

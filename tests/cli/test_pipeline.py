@@ -1,4 +1,4 @@
-"""Pipeline CLI: ``kinematics fk`` / ``jacobian`` over trajectory files, ``serve``, ``models``.
+"""Pipeline CLI: ``kinematics fk`` / ``jacobian`` over trajectory files, ``models``.
 
 Outputs are read back and compared with ``compile_model(model).fk`` / ``.jacobian`` (to
 1e-12); quaternions are checked by rebuilding the rotation from them. Bad files must give
@@ -359,20 +359,7 @@ def test_empty_input_gives_empty_outputs(tmp_path, capsys):
     assert np.load(tmp_path / "T.npy").shape == (0, 11, 4, 4)
 
 
-# ============================================================================ serve, models
-def test_serve_execs_uvicorn_without_importing_it(monkeypatch, capsys):
-    calls = []
-    monkeypatch.setattr(os, "execv", lambda path, argv: calls.append((path, argv)))
-    monkeypatch.delenv("KIN_DATA_DIR", raising=False)
-    assert main(["serve", "--host", "0.0.0.0", "--port", "9123", "--workers", "3", "--data-dir", "/tmp/kin-x"]) == 0
-    (path, argv), = calls
-    assert path == sys.executable
-    assert argv == [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "0.0.0.0", "--port", "9123", "--workers", "3"]
-    assert os.environ["KIN_DATA_DIR"] == "/tmp/kin-x"
-    assert main(["serve", "--port", "70000"]) == 2
-    capsys.readouterr()
-
-
+# ============================================================================ models
 def test_models_lists_catalogue(capsys):
     code, out, _ = run(["models"], capsys)
     assert code == 0

@@ -6,7 +6,7 @@
   are refused before any entity is expanded: bounded memory (tracemalloc peak), no file
   opened, no socket touched (audit hook);
 - the link/joint count limit holds;
-- DH corpus tables are refused by :func:`kinematics.dh.table_from_dict` naming the field;
+- DH corpus tables are refused by :func:`kinematics.io.dh_table.table_from_dict` naming the field;
 - regressions for the bugs this hardening found (huge axis components, one-DOF
   Pinocchio Jacobian).
 """

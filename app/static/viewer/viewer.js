@@ -21,7 +21,7 @@ const AXIS_ARROW_FRACTION = 0.1;          // joint axis arrow length / model siz
 const DIGITS = 4;
 const API_KEY_STORAGE = "kinematics-api-key";  // sessionStorage: forgotten when the tab closes
 
-// Test hook (tests/test_viewer.py reads it); also handy from the browser console.
+// Test hook (tests/app/test_viewer.py reads it); also handy from the browser console.
 const state = {
   ready: false,
   modelId: null,

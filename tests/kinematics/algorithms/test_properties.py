@@ -7,7 +7,7 @@ follow a joint on another branch. For each one:
 - every FK pose is a rigid transform (R orthonormal, det R = 1, last row 0 0 0 1);
 - a batch gives exactly what the configurations give one at a time;
 - each of the three Jacobians equals central finite differences of our own FK;
-- FK and all Jacobians agree with Pinocchio (``kinematics.crosscheck``) to 1e-9;
+- FK and all Jacobians agree with Pinocchio (``kinematics.verify.pinocchio``) to 1e-9;
 - a random DH table -> URDF -> FK equals the direct product of the DH matrices.
 
 Budgets are bounded (``MAX_EXAMPLES`` per property, no deadline) so the file runs in seconds.
@@ -26,7 +26,7 @@ from kinematics.io import dh_table as dh
 
 #: examples per property (keeps the file in seconds on 2 cores)
 MAX_EXAMPLES = 100
-#: agreement with Pinocchio (DESIGN.md quality bar)
+#: agreement with Pinocchio (docs/design.md quality bar)
 PINOCCHIO_TOL = 1e-9
 #: rigid-transform checks on FK output
 ORTHO_TOL = 1e-12
@@ -271,7 +271,7 @@ def dh_tables(draw):
 
 
 def _dh_product(table: dict, q: np.ndarray) -> list[np.ndarray]:
-    """[T_world_frame_i for i = 1..n] + [T_world_tool], straight from the formulas of DESIGN.md."""
+    """[T_world_frame_i for i = 1..n] + [T_world_tool], straight from the formulas of docs/design.md."""
     T = np.array(table["base"], dtype=float)
     frames = []
     for row, qi in zip(table["joints"], q):

@@ -308,7 +308,7 @@ def test_generated_urdf_names_limits_and_visuals(convention):
 
 @pytest.mark.parametrize("convention", ["standard", "modified"])
 def test_dh_transforms_follow_the_formulas_of_design(convention, rng):
-    """Independent product of elementary matrices (DESIGN.md) vs dh_transforms."""
+    """Independent product of elementary matrices (docs/design.md) vs dh_transforms."""
     d = _table_dict(convention=convention, angles="radians")
     for row in d["joints"]:
         row.pop("limits", None)

@@ -1,0 +1,38 @@
+"""Things derived from a model once and kept as long as the model lives (compiled forms,
+the reference library's view of it): the model itself stays immutable, nothing is hung on it."""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from typing import Callable, Generic, TypeVar
+
+from .robot import RobotModel
+
+T = TypeVar("T")
+
+
+class PerModel(Generic[T]):
+    """``build(model)``, computed once per model object (thread-safe) and dropped with the model.
+
+    >>> from kinematics.io import parse_urdf
+    >>> links = PerModel(lambda model: len(model.links))
+    >>> model = parse_urdf('<robot name="r"><link name="a"/></robot>')
+    >>> links(model), links(model) is links(model)
+    (1, True)
+    """
+
+    def __init__(self, build: Callable[[RobotModel], T]):
+        self._build = build
+        self._values: "weakref.WeakKeyDictionary[RobotModel, T]" = weakref.WeakKeyDictionary()
+        self._lock = threading.Lock()
+
+    def __call__(self, model: RobotModel) -> T:
+        value = self._values.get(model)
+        if value is None:
+            with self._lock:
+                value = self._values.get(model)
+                if value is None:
+                    value = self._build(model)
+                    self._values[model] = value
+        return value
