@@ -12,6 +12,10 @@ import math
 import numba as nb
 import numpy as np
 
+#: |cos(pitch)| below which a rotation counts as at the gimbal lock (roll set to 0)
+GIMBAL_EPS = 1e-12
+
+
 def skew(w: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix ``[w]`` of a 3-vector (or of a batch ``(..., 3)``).
 
@@ -47,18 +51,29 @@ def rpy_to_matrix(rpy) -> np.ndarray:
 def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
     """URDF roll-pitch-yaw of rotation(s) ``R`` (..., 3, 3) -> (..., 3); pitch in [-pi/2, pi/2].
 
-    At the gimbal lock (|pitch| = pi/2) roll is set to 0 and yaw carries the rotation.
+    Accurate to rounding everywhere, the gimbal lock included: pitch is
+    ``atan2(-R20, hypot(R21, R22))`` (not an arcsine, which loses half the digits near
+    ±pi/2), and yaw is fitted to the residual ``R (Ry(pitch) Rx(roll))^T``, so an
+    ill-conditioned roll near the lock is compensated. Within :data:`GIMBAL_EPS` of the lock
+    roll is 0 and yaw carries the rotation (the error of dropping roll there is below it).
+
+    >>> rpy = np.array([0.3, np.pi / 2 - 1e-8, 0.2])
+    >>> bool(np.abs(rpy_to_matrix(matrix_to_rpy(rpy_to_matrix(rpy))) - rpy_to_matrix(rpy)).max() < 1e-15)
+    True
     """
     R = np.asarray(R, dtype=float)
-    pitch = np.arcsin(np.clip(-R[..., 2, 0], -1.0, 1.0))
-    cp = np.sqrt(R[..., 0, 0] ** 2 + R[..., 1, 0] ** 2)
-    regular = cp > 1e-10
-    roll = np.where(regular, np.arctan2(R[..., 2, 1], R[..., 2, 2]), 0.0)
-    yaw = np.where(
-        regular,
-        np.arctan2(R[..., 1, 0], R[..., 0, 0]),
-        np.arctan2(-R[..., 0, 1], R[..., 1, 1]),
-    )
+    r21, r22 = R[..., 2, 1], R[..., 2, 2]
+    c = np.hypot(r21, r22)  # |cos(pitch)|
+    pitch = np.arctan2(-R[..., 2, 0], c)
+    roll = np.where(c > GIMBAL_EPS, np.arctan2(r21, r22), 0.0)
+    cp, sp, cr, sr = np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+    # rows of M = Ry(pitch) Rx(roll); Rz(yaw) = R M^T, whose (1,0) - (0,1) and (0,0) + (1,1) give yaw
+    m0 = np.stack([cp, sp * sr, sp * cr], axis=-1)
+    m1 = np.stack([np.zeros_like(cr), cr, -sr], axis=-1)
+    r0, r1 = R[..., 0, :], R[..., 1, :]
+    z00, z01 = np.sum(r0 * m0, axis=-1), np.sum(r0 * m1, axis=-1)
+    z10, z11 = np.sum(r1 * m0, axis=-1), np.sum(r1 * m1, axis=-1)
+    yaw = np.arctan2(z10 - z01, z00 + z11)
     return np.stack([roll, pitch, yaw], axis=-1)
 
 

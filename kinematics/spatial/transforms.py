@@ -39,7 +39,7 @@ def is_rigid_transform(T, tol: float = RIGID_TOLERANCE) -> bool:
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         return False
     R = T[:3, :3]
-    return (
+    return bool(
         np.allclose(R.T @ R, np.eye(3), atol=tol)
         and abs(np.linalg.det(R) - 1.0) < tol
         and np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=tol)
