@@ -26,6 +26,7 @@ from kinematics.errors import (
     LimitError,
     ModelTooLargeError,
     NoDHFormError,
+    PoseError,
     ReferenceUnavailableError,
     UnknownLinkError,
     UnknownModelError,
@@ -50,6 +51,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
+    (PoseError, 422, "invalid-pose", "Invalid pose"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )

@@ -32,14 +32,15 @@ from .settings import Settings
 log = logging.getLogger("app")
 
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
-ROUTERS = ("health", "models", "kinematics", "viewer")
+ROUTERS = ("health", "models", "kinematics", "ik", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
-DESCRIPTION = """Forward kinematics and Jacobians of robots (URDF or Denavit-Hartenberg), computed with
-product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
+DESCRIPTION = """Forward kinematics, Jacobians and inverse kinematics of robots (URDF or Denavit-Hartenberg),
+computed with product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
 
 Units are metres and radians. Poses are `T_world_link`; Jacobians are 6 x dof with the
 linear rows first. Batch FK and Jacobians also speak NumPy `.npy`
-(`Content-Type` / `Accept: application/x-npy`). Errors are `application/problem+json`."""
+(`Content-Type` / `Accept: application/x-npy`); IK takes `.npy` targets (N, 4, 4) and answers
+`.npz` (`Accept: application/x-npz`). Errors are `application/problem+json`."""
 
 
 def _include_routers(app: FastAPI) -> None:

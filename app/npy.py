@@ -14,6 +14,16 @@ NPY_MAGIC = b"\x93NUMPY"
 MAX_NAMES_HEADER = 8192
 
 
+def decode_targets(body: bytes) -> np.ndarray:
+    """IK targets from a ``.npy`` body: an ``(N, 4, 4)`` (or ``(4, 4)``) real array, as float64
+    (rigidity and finiteness are checked by the library, naming the target)."""
+    arr = _decode(body, "targets")
+    if arr.shape[-2:] != (4, 4) or arr.ndim not in (2, 3):
+        raise ProblemError(422, f"targets must be an (N, 4, 4) array of poses, got shape {arr.shape}",
+                           slug="invalid-npy", field="body")
+    return arr
+
+
 def decode_q(body: bytes) -> np.ndarray:
     """A ``(N, dof)`` (or ``(dof,)``) real array from a ``.npy`` body, as float64.
 
@@ -22,6 +32,15 @@ def decode_q(body: bytes) -> np.ndarray:
     a truncated file, or more than two dimensions. Non-finite values are refused later
     with the joint named (:func:`kinematics.as_batch`).
     """
+    arr = _decode(body, "joint values")
+    if arr.ndim not in (1, 2):
+        raise ProblemError(422, f"joint values must be an (N, dof) array, got shape {arr.shape}",
+                           slug="invalid-npy", field="body")
+    return arr
+
+
+def _decode(body: bytes, what: str) -> np.ndarray:
+    """A plain numeric array from a ``.npy`` body (no pickle, no .npz, no exotic dtype), as float64."""
     if not body.startswith(NPY_MAGIC):
         raise ProblemError(400, "the body is not a .npy file (bad magic); send np.save output with "
                            "Content-Type: application/x-npy", slug="invalid-npy", field="body")
@@ -38,10 +57,7 @@ def decode_q(body: bytes) -> np.ndarray:
     if not isinstance(arr, np.ndarray):
         raise ProblemError(400, "the body is not a single .npy array", slug="invalid-npy", field="body")
     if arr.dtype.kind not in "fiu" or arr.dtype.fields is not None:
-        raise ProblemError(422, f"joint values must be real numbers (float64), got dtype {arr.dtype}",
-                           slug="invalid-npy", field="body")
-    if arr.ndim not in (1, 2):
-        raise ProblemError(422, f"joint values must be an (N, dof) array, got shape {arr.shape}",
+        raise ProblemError(422, f"{what} must be real numbers (float64), got dtype {arr.dtype}",
                            slug="invalid-npy", field="body")
     return np.ascontiguousarray(arr, dtype=np.float64)
 

@@ -16,6 +16,7 @@ import orjson
 from fastapi.responses import JSONResponse, Response
 
 NPY_MEDIA_TYPE = "application/x-npy"
+NPZ_MEDIA_TYPE = "application/x-npz"
 PROBLEM_MEDIA_TYPE = "application/problem+json"
 
 _ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
@@ -70,6 +71,17 @@ class NpyResponse(Response):
         await send({"type": "http.response.start", "status": self.status_code, "headers": self.raw_headers})
         await send({"type": "http.response.body", "body": self.body, "more_body": True})
         await send({"type": "http.response.body", "body": memoryview(self.array).cast("B")})
+
+
+class NpzResponse(Response):
+    """Named arrays as an uncompressed NumPy ``.npz`` archive (``np.savez``; never pickled)."""
+
+    media_type = NPZ_MEDIA_TYPE
+
+    def __init__(self, arrays: dict[str, np.ndarray], headers: dict[str, str] | None = None, status_code: int = 200):
+        buf = io.BytesIO()
+        np.savez(buf, **{name: np.ascontiguousarray(a) for name, a in arrays.items()})
+        super().__init__(buf.getvalue(), status_code=status_code, headers=headers)
 
 
 def npy_header(array: np.ndarray) -> bytes:

@@ -45,6 +45,8 @@ class Settings(BaseSettings):
     max_batch: int = Field(default=1_000_000, gt=0, description="most configurations in one request")
     max_links: int = Field(default=10_000, gt=0, description="most links (and joints) in one model")
     max_verify: int = Field(default=10_000, gt=0, description="most configurations one verify=true may check")
+    max_ik_work: int = Field(default=100_000_000, gt=0,
+                             description="most IK steps one request may take: targets x (restarts + 1) x max_iterations")
     max_result_values: int = Field(default=32_000_000, gt=0,
                                    description="most numbers in one FK / Jacobian answer (N x links x 16, N x 6 x dof)")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)

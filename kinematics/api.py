@@ -26,18 +26,20 @@ import numpy as np
 from .algorithms.base import jacobian_in_world, poses_in_world
 from .algorithms.dh import urdf_to_dh
 from .algorithms.fk import forward_kinematics
+from .algorithms.ik import IKSolution, inverse_kinematics, pose_errors
+from .algorithms import ik as _ik
 from .algorithms.jacobian import jacobian as _jacobian
 from .algorithms.measures import conditioning
 from .engine.poe import compile_model
 from .errors import BudgetError, JointValueError, KinematicsError
 from .io.catalogue import default_catalogue
 from .io.dh_table import load_table, model_from_table
-from .io.poses import base_poses
+from .io.poses import base_poses, pose_list
 from .io.urdf import load_urdf, parse_urdf
 from .model.joint_values import as_batch, limit_violations, out_of_limits, require_within_limits
 from .model.robot import RobotModel
 from .spatial.reference import Reference
-from .spatial.transforms import pose_components
+from .spatial.transforms import inverse_transform, pose_components
 
 #: What to do with joint values outside their limits: compute and report them, or refuse.
 LIMIT_POLICIES = ("report", "refuse")
@@ -47,13 +49,15 @@ LIMIT_POLICIES = ("report", "refuse")
 class Budget:
     """Upper bounds a caller puts on one request (None: unbounded).
 
-    ``max_batch``: configurations; ``max_verify``: configurations compared with Pinocchio;
-    ``max_result_values``: numbers in the answer. Over a bound: :class:`BudgetError`.
+    ``max_batch``: configurations (IK: targets); ``max_verify``: configurations compared with
+    Pinocchio; ``max_result_values``: numbers in the answer; ``max_ik_work``: IK steps a request
+    may take at most (targets x (restarts + 1) x max_iterations). Over a bound: :class:`BudgetError`.
     """
 
     max_batch: int | None = None
     max_verify: int | None = None
     max_result_values: int | None = None
+    max_ik_work: int | None = None
 
     def check_batch(self, n: int) -> None:
         if self.max_batch is not None and n > self.max_batch:
@@ -70,6 +74,15 @@ class Budget:
             raise BudgetError(f"the answer would hold {values} numbers ({what}); the limit is "
                               f"{self.max_result_values}: send fewer configurations or links",
                               budget="result", field="q", limit=self.max_result_values)
+
+
+    def check_ik_work(self, targets: int, restarts: int, max_iterations: int) -> None:
+        work = targets * (restarts + 1) * max_iterations
+        if self.max_ik_work is not None and work > self.max_ik_work:
+            raise BudgetError(f"IK may take {work} steps ({targets} targets x {restarts + 1} attempts x "
+                              f"{max_iterations} iterations); the limit (max_ik_work) is {self.max_ik_work}: "
+                              "send fewer targets, restarts or iterations", budget="ik-work", field="target",
+                              limit=self.max_ik_work)
 
 
 UNBOUNDED = Budget()
@@ -217,6 +230,66 @@ def jacobian(model: RobotModel, q: Any, *, link: str | None = None, reference: s
         verification = Verification(REFERENCE_NAME, max_jacobian_error=err)
     return JacobianAnswer(model, Q, is_batch, link, Reference(reference), jacobian_in_world(J, B, reference),
                           verification)
+
+
+@dataclass(frozen=True, eq=False)
+class IKAnswer:
+    """IK answers for N targets (``is_batch``: the request gave a list of targets)."""
+
+    model: RobotModel
+    link: str
+    mode: str
+    is_batch: bool
+    targets: np.ndarray  # (N, 4, 4) T_world_link
+    solution: IKSolution
+    verification: dict[str, Any] | None = None  # Pinocchio's FK of every answer against its target
+
+
+def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = None, mode: str = "pose",
+       position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
+       rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
+       max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
+       random_seed: int = 0, base: Any = None, verify: bool = False, budget: Budget = UNBOUNDED) -> IKAnswer:
+    """Joint values putting ``link`` (None: the first leaf link) at ``target``: one pose or a list
+    (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array), ``T_world_link``.
+
+    ``seed``: one q (vector or name map) for every target, or one per target; default the middle
+    of the limits. ``base`` as for :func:`fk`. ``success`` holds only where the answer's FK is
+    within the tolerances and the answer inside the limits (:mod:`kinematics.algorithms.ik`).
+    ``verify``: Pinocchio's FK of every answer, against its target.
+    """
+    T, is_batch = pose_list(target, "target")
+    N = T.shape[0]
+    budget.check_batch(N)
+    if verify:
+        budget.check_verify(N)
+    budget.check_ik_work(N, restarts, max_iterations)
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    seeds = None
+    if seed is not None:
+        try:
+            S, _ = as_batch(model, seed)
+        except JointValueError as exc:
+            raise JointValueError(f"seed: {exc}") from None
+        if S.shape[0] not in (1, N):
+            raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
+        seeds = S
+    B = base_poses(base, N)
+    B = None if B is None else np.ascontiguousarray(B)
+    solution = inverse_kinematics(model, link, T, seeds, base=B, mode=mode, position_tolerance=position_tolerance,
+                                  rotation_tolerance=rotation_tolerance, max_iterations=max_iterations,
+                                  restarts=restarts, random_seed=random_seed)
+    verification = None
+    if verify:
+        from .verify.pinocchio import REFERENCE_NAME, reference_for
+
+        ref = reference_for(model)
+        theirs = np.array([ref.poses(q)[link] for q in solution.q]).reshape(N, 4, 4)
+        T_root = T if B is None else np.matmul(inverse_transform(B), T)
+        position, rotation = pose_errors(theirs, T_root)
+        verification = {"reference": REFERENCE_NAME, "position_error": position, "rotation_error": rotation}
+    return IKAnswer(model, link, mode, is_batch, T, solution, verification)
 
 
 def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str | None = None) -> RobotModel:

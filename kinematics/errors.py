@@ -52,7 +52,11 @@ class ReferenceUnavailableError(KinematicsError):
     """The reference implementation (Pinocchio) cannot load or evaluate this model."""
 
 
-class BasePoseError(KinematicsError):
+class PoseError(KinematicsError):
+    """A pose given as data (an IK target, a tool offset) that is malformed or not rigid."""
+
+
+class BasePoseError(PoseError):
     """A base pose (the root link's pose in the world) that is malformed or not rigid."""
 
 

@@ -50,6 +50,7 @@ import numpy as np
 from ..spatial.reference import Reference
 from ..spatial.transforms import inverse_transform
 from . import compiled
+from . import ik as ik_kernel
 from .buffers import result_array
 
 #: Configurations per chunk of the compiled kernels (a chunk's frames stay in L2).
@@ -205,6 +206,17 @@ class Kernel:
             j = int(self.poe.parent[j])
         return np.array(out[::-1], dtype=np.int64)
 
+    def path_plan(self, link_index: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(path, D)`` of a link: its moving joints root first, and its constant factor ``G^-1 M``."""
+        jp = self._jplans.get(link_index)
+        if jp is None:
+            jp = (self.path(link_index), np.ascontiguousarray(self.D4[link_index]))
+            for a in jp:
+                a.setflags(write=False)
+            if len(self._jplans) < PLAN_CACHE_SIZE:
+                self._jplans[link_index] = jp
+        return jp
+
     def jacobian(self, Q: np.ndarray, link_index: int, reference: str, chunk: int = CHUNK_SIZE) -> np.ndarray:
         """Jacobian (N, 6, dof) of link ``link_index``, linear rows first, in ``reference``.
 
@@ -214,15 +226,28 @@ class Kernel:
         """
         N = Q.shape[0]
         J = np.zeros((N, 6, Q.shape[1]))
-        jp = self._jplans.get(link_index)
-        if jp is None:
-            jp = (self.path(link_index), np.ascontiguousarray(self.D4[link_index]))
-            for a in jp:
-                a.setflags(write=False)
-            if len(self._jplans) < PLAN_CACHE_SIZE:
-                self._jplans[link_index] = jp
-        path, D = jp
+        path, D = self.path_plan(link_index)
         if N and len(path):
             Q = np.ascontiguousarray(Q, dtype=np.float64)
             compiled.jacobian(Q, self._jint, self._jflt, path, D, _REFERENCE_CODES[reference], J, max(1, min(chunk, N)))
         return J
+
+    # ------------------------------------------------------------------ inverse kinematics
+    def ik(self, Q: np.ndarray, targets: np.ndarray, link_index: int, lower: np.ndarray, upper: np.ndarray,
+           wrap: np.ndarray, position_only: bool, tol_position: float, tol_rotation: float, max_iterations: int,
+           restarts: int, streams: np.ndarray, damping: float, polish: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Inverse kinematics (:func:`kinematics.engine.ik.solve`) of link ``link_index`` for targets
+        ``T_root_link`` (N, 4, 4) from seeds ``Q`` (N, dof): ``(Q, position_error, rotation_error,
+        steps)`` of the best configurations found. Only the path's q columns move."""
+        path, D = self.path_plan(link_index)
+        N = Q.shape[0]
+        Q = np.array(Q, dtype=np.float64, order="C")
+        perr, rerr, steps = np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.int64)
+        cols = np.unique(self._jint[path, compiled.J_QINDEX]) if len(path) else np.zeros(0, dtype=np.int64)
+        if N == 0 or len(cols) == 0:  # nothing moves the link: the seeds stay (the caller measures them)
+            return Q, perr, rerr, steps
+        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, cols.astype(np.int64),
+                        self._jint, self._jflt, path, D, ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE,
+                        tol_position, tol_rotation, max_iterations, restarts, damping, polish, streams, perr, rerr,
+                        steps)
+        return Q, perr, rerr, steps

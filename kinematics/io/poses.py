@@ -13,50 +13,50 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import BasePoseError
+from ..errors import BasePoseError, PoseError
 from ..spatial.rotations import quaternion_to_matrix, rpy_to_matrix
 from ..spatial.transforms import is_rigid_transform, make_transform
 from ..tolerances import MAX_ABS_COORDINATE, RIGID_TOLERANCE
 
 
-def _vector(value, n: int, where: str) -> np.ndarray:
+def _vector(value, n: int, where: str, error: type[PoseError] = BasePoseError) -> np.ndarray:
     if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or len(value) != n:
-        raise BasePoseError(f"{where}: expected {n} numbers, got {value!r}")
+        raise error(f"{where}: expected {n} numbers, got {value!r}")
     try:
         v = np.array([float(x) for x in value])
     except (TypeError, ValueError):
-        raise BasePoseError(f"{where}: {value!r} is not a list of numbers") from None
+        raise error(f"{where}: {value!r} is not a list of numbers") from None
     if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_ABS_COORDINATE):
-        raise BasePoseError(f"{where}: {value!r} has a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
+        raise error(f"{where}: {value!r} has a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
     return v
 
 
-def _one_pose(value, where: str) -> np.ndarray:
+def _one_pose(value, where: str, error: type[PoseError] = BasePoseError) -> np.ndarray:
     if isinstance(value, Mapping):
         keys = set(value)
         if keys == {"xyz", "rpy"}:
-            return make_transform(rpy_to_matrix(_vector(value["rpy"], 3, f"{where}.rpy")),
-                                  _vector(value["xyz"], 3, f"{where}.xyz"))
+            return make_transform(rpy_to_matrix(_vector(value["rpy"], 3, f"{where}.rpy", error)),
+                                  _vector(value["xyz"], 3, f"{where}.xyz", error))
         if keys == {"position", "quaternion"}:
             quat = value["quaternion"]
             if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
-                raise BasePoseError(f"{where}.quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
-            w, x, y, z = _vector([quat["w"], quat["x"], quat["y"], quat["z"]], 4, f"{where}.quaternion")
+                raise error(f"{where}.quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
+            w, x, y, z = _vector([quat["w"], quat["x"], quat["y"], quat["z"]], 4, f"{where}.quaternion", error)
             norm = np.sqrt(w * w + x * x + y * y + z * z)
             if abs(norm - 1.0) > RIGID_TOLERANCE:
-                raise BasePoseError(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
+                raise error(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
             R = quaternion_to_matrix(*(np.array([w, x, y, z]) / norm))
-            return make_transform(R, _vector(value["position"], 3, f"{where}.position"))
-        raise BasePoseError(
+            return make_transform(R, _vector(value["position"], 3, f"{where}.position", error))
+        raise error(
             f"{where}: expected {{\"xyz\", \"rpy\"}}, {{\"position\", \"quaternion\"}} or a 4x4 matrix, "
             f"got the keys {sorted(map(str, keys))}"
         )
     if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 4:
-        T = np.array([_vector(row, 4, f"{where}[{i}]") for i, row in enumerate(value)])
+        T = np.array([_vector(row, 4, f"{where}[{i}]", error) for i, row in enumerate(value)])
         if not is_rigid_transform(T, RIGID_TOLERANCE):
-            raise BasePoseError(f"{where}: not a rigid transform (rotation orthonormal with det 1, last row 0 0 0 1)")
+            raise error(f"{where}: not a rigid transform (rotation orthonormal with det 1, last row 0 0 0 1)")
         return T
-    raise BasePoseError(f"{where}: expected a pose, got {value!r}")
+    raise error(f"{where}: expected a pose, got {value!r}")
 
 
 def _is_pose_list(value) -> bool:
@@ -76,3 +76,36 @@ def base_poses(value, n: int) -> np.ndarray | None:
             raise BasePoseError(f"base: {len(value)} poses given for {n} configurations (give one, or one each)")
         return np.stack([_one_pose(v, f"base[{i}]") for i, v in enumerate(value)])
     return np.broadcast_to(_one_pose(value, "base"), (n, 4, 4))
+
+
+def pose_count(value) -> int:
+    """How many poses ``value`` holds (before validation): a list's length, an array's first axis, else 1."""
+    if isinstance(value, np.ndarray):
+        return int(value.shape[0]) if value.ndim == 3 else 1
+    return len(value) if _is_pose_list(value) else 1
+
+
+def pose_list(value, field: str) -> tuple[np.ndarray, bool]:
+    """``(T (N, 4, 4), is_batch)`` of one pose or a list of poses (any form above, or an
+    ``(N, 4, 4)`` / ``(4, 4)`` array), each checked to be a finite rigid transform; errors
+    (:class:`PoseError`) name ``field`` and the pose's index."""
+    if isinstance(value, np.ndarray):
+        if value.shape == (4, 4):
+            value, is_batch = value[None], False
+        elif value.ndim == 3 and value.shape[1:] == (4, 4):
+            is_batch = True
+        else:
+            raise PoseError(f"{field}: expected an array of shape (N, 4, 4) or (4, 4), got {value.shape}")
+        T = np.asarray(value, dtype=float)
+        for i, Ti in enumerate(T):
+            if not np.all(np.isfinite(Ti)) or np.any(np.abs(Ti) > MAX_ABS_COORDINATE):
+                raise PoseError(f"{field}[{i}]: a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
+            if not is_rigid_transform(Ti, RIGID_TOLERANCE):
+                raise PoseError(f"{field}[{i}]: not a rigid transform (rotation orthonormal with det 1, "
+                                "last row 0 0 0 1)")
+        return T, is_batch
+    if _is_pose_list(value):
+        return np.stack([_one_pose(v, f"{field}[{i}]", PoseError) for i, v in enumerate(value)]), True
+    if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 0:
+        raise PoseError(f"{field}: an empty list of poses")
+    return _one_pose(value, field, PoseError)[None], False

@@ -105,6 +105,20 @@ def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
     return quaternions(flat, np.empty((flat.shape[0], 4))).reshape(batch + (4,))
 
 
+def rotation_angle(R: np.ndarray) -> np.ndarray:
+    """The angle (..., ) in [0, π] of rotation(s) ``R`` (..., 3, 3), accurate for small angles too
+    (``atan2`` of the skew and symmetric parts, not an arccosine of the trace).
+
+    >>> float(rotation_angle(rpy_to_matrix([0.0, 0.0, 1e-9])))
+    1e-09
+    """
+    R = np.asarray(R, dtype=float)
+    s = 0.5 * np.sqrt((R[..., 2, 1] - R[..., 1, 2]) ** 2 + (R[..., 0, 2] - R[..., 2, 0]) ** 2
+                      + (R[..., 1, 0] - R[..., 0, 1]) ** 2)
+    c = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
+    return np.arctan2(s, c)
+
+
 def quaternion_to_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
     """Rotation (3, 3) of the unit quaternion ``(w, x, y, z)`` (the inverse of :func:`matrix_to_quaternion`)."""
     return np.array([
