@@ -312,12 +312,14 @@ _WARM_UP_URDF = """<robot name="warm_up">
 
 
 def warm_up() -> None:
-    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, rotation
+    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, IK, rotation
     to quaternion; compiled on the first run on a machine, a few seconds, then read from
     numba's disk cache), so that a server's first request pays for neither."""
     model = parse_urdf(_WARM_UP_URDF)
+    pose = fk(model, [0.5]).poses[0, 0]
     fk(model, [0.0]).components()
     jacobian(model, [0.0], link="arm")
+    ik(model, pose, link="arm")
 
 
 def screws(model: RobotModel):

@@ -78,7 +78,8 @@ def pose_errors(T: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndar
 def middle_of_limits(model: RobotModel) -> np.ndarray:
     """The default seed (dof,): the middle of each joint's limits (0 where a joint has none)."""
     lo, hi = model.lower_limits, model.upper_limits
-    return np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+    limited = np.isfinite(lo) & np.isfinite(hi)
+    return np.where(limited, 0.5 * (np.where(limited, lo, 0.0) + np.where(limited, hi, 0.0)), 0.0)
 
 
 def _streams(targets: np.ndarray, seeds: np.ndarray, random_seed: int) -> np.ndarray:
