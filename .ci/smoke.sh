@@ -117,6 +117,20 @@ if LIB is not None:
         fail(f"ur5 Jacobian {J} != library {refJ.tolist()}")
 ok(f"POST /models/ur5/jacobian {ms:.0f} ms: 6x6" + (", equal to the library" if LIB is not None else ""))
 
+# ---------------------------------------------------------------- IK on ur5
+# the target is the pose FK gave for Q[1]; the answer (any of the arm's solutions) must reproduce it
+target = poses[1]["tool0"]["matrix"]
+_, ikr, ms = get_json("POST", "/models/ur5/ik", {"link": "tool0", "target": target, "verify": True})
+if ikr.get("success") is not True or ikr["position_error"] > 1e-6 or ikr["rotation_error"] > 1e-6:
+    fail(f"ur5 IK of a reachable target: {ikr}")
+_, back, _ = get_json("POST", "/models/ur5/fk", {"q": ikr["q"], "links": ["tool0"]})
+if not close(back["poses"]["tool0"]["matrix"], target, 1e-6):
+    fail(f"FK of the IK answer {back['poses']['tool0']['matrix']} is not the target {target}")
+if ikr["verification"]["position_error"] > 1e-6:
+    fail(f"Pinocchio disagrees with the IK answer: {ikr['verification']}")
+ok(f"POST /models/ur5/ik {ms:.0f} ms: solved in {ikr['iterations']} iterations; FK of the answer is the target "
+   f"(position error {ikr['position_error']:.1e} m, Pinocchio {ikr['verification']['position_error']:.1e} m)")
+
 # ---------------------------------------------------------------- DH upload + FK
 l1, l2 = 0.7, 0.45
 table = {
