@@ -84,14 +84,15 @@ def middle_of_limits(model: RobotModel) -> np.ndarray:
 
 def _streams(targets: np.ndarray, seeds: np.ndarray, random_seed: int) -> np.ndarray:
     """A 64-bit random-stream seed per target, a hash of its target, its seed and ``random_seed``
-    (so an answer depends only on its own inputs)."""
+    (so an answer depends only on its own inputs): the bits of each row times odd constants,
+    summed (mod 2^64), then mixed (splitmix64's finaliser)."""
     bits = np.ascontiguousarray(np.concatenate([targets.reshape(len(targets), 16), seeds], axis=1)).view(np.uint64)
-    h = np.full(len(targets), np.uint64(random_seed & 0xFFFFFFFFFFFFFFFF) ^ np.uint64(0x5851F42D4C957F2D))
     with np.errstate(over="ignore"):
-        for column in bits.T:
-            h = (h ^ column) * np.uint64(0xBF58476D1CE4E5B9)
-            h ^= h >> np.uint64(29)
-    return h
+        odd = (np.arange(1, bits.shape[1] + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
+        h = (bits * odd).sum(axis=1, dtype=np.uint64) ^ np.uint64(random_seed & 0xFFFFFFFFFFFFFFFF)
+        h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return h ^ (h >> np.uint64(31))
 
 
 def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds: np.ndarray | None = None, *,
@@ -122,9 +123,8 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     if seeds is None:
         seeds = middle_of_limits(model)
     Q0 = np.ascontiguousarray(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.dof)))
-    wrap = np.array([model.joint_map[n].type == "continuous" for n in model.joint_names], dtype=np.bool_)
     Q, _, _, steps = poe.kernel.ik(
-        Q0, T_root, li, np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits), wrap,
+        Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous,
         mode == "position", float(position_tolerance), float(rotation_tolerance), int(max_iterations),
         int(restarts), _streams(T_root, Q0, int(random_seed)), DAMPING, POLISH)
     # the answer's own errors, measured by the FK kernel: success is only what they show

@@ -243,10 +243,10 @@ class Kernel:
         N = Q.shape[0]
         Q = np.array(Q, dtype=np.float64, order="C")
         perr, rerr, steps = np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.int64)
-        cols = np.unique(self._jint[path, compiled.J_QINDEX]) if len(path) else np.zeros(0, dtype=np.int64)
+        cols = np.unique(self._jint[path, compiled.J_QINDEX]).astype(np.int64)
         if N == 0 or len(cols) == 0:  # nothing moves the link: the seeds stay (the caller measures them)
             return Q, perr, rerr, steps
-        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, cols.astype(np.int64),
+        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, cols,
                         self._jint, self._jflt, path, D, ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE,
                         tol_position, tol_rotation, max_iterations, restarts, damping, polish, streams, perr, rerr,
                         steps)

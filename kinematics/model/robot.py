@@ -149,6 +149,13 @@ class RobotModel:
             [self.joint_map[n].limits.upper if self.joint_map[n].limits else np.inf for n in self.joint_names]
         )
 
+    @cached_property
+    def continuous(self) -> np.ndarray:
+        """(dof,) bool, read-only: which joints of q are continuous (unbounded angles)."""
+        mask = np.array([self.joint_map[n].type == "continuous" for n in self.joint_names], dtype=bool)
+        mask.setflags(write=False)
+        return mask
+
     def topological_links(self) -> tuple[str, ...]:
         """Links ordered so that every parent comes before its children (depth first)."""
         order: list[str] = []
