@@ -32,11 +32,14 @@ if [ -f "$PKG/build/three.core.js" ]; then
     cp "$PKG/build/three.core.js" "$DEST/"
 fi
 cp "$PKG/examples/jsm/controls/OrbitControls.js" "$DEST/addons/controls/"
+# The IK target gizmo (a translate / rotate handle on the selected link).
+cp "$PKG/examples/jsm/controls/TransformControls.js" "$DEST/addons/controls/"
 cp "$PKG/LICENSE" "$DEST/LICENSE"
 cat > "$DEST/README.md" <<NOTE
 three.js $THREE_VERSION (MIT licence, see LICENSE), copied from the npm package \`three\`
 by scripts/vendor_threejs.sh. Do not edit these files; rerun the script to update them.
 NOTE
-# OrbitControls imports 'three': the import map resolves it, so no rewriting is needed.
+# OrbitControls and TransformControls import only 'three': the import map resolves it, so no
+# rewriting is needed.
 echo "vendored three@$THREE_VERSION into $DEST:"
 (cd "$DEST" && find . -type f | sort)

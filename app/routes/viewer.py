@@ -4,7 +4,8 @@
 its files (HTML, JS, CSS and a vendored copy of three.js, see
 ``scripts/vendor_threejs.sh``); ``GET /viewer/api/{id}/visuals`` the primitive visual
 geometry of a model's links, which the model info does not carry. The page does no
-kinematics itself: it calls ``POST /models/{id}/fk`` and ``/jacobian``.
+kinematics itself: it calls ``POST /models/{id}/fk``, ``/jacobian`` and, for its draggable IK
+target (three.js's ``TransformControls``, vendored too), ``/ik``.
 
 The page loads nothing from outside the service: its scripts are served here, and its
 ``Content-Security-Policy`` allows only this origin (plus the page's one inline import
@@ -81,7 +82,8 @@ def _page(request: Request, model_id: str) -> HTMLResponse:
 @router.get("/viewer", response_class=HTMLResponse, summary="Model viewer page")
 def viewer_page(request: Request) -> HTMLResponse:
     """A page that draws a model in 3D (links as axis triads, joints, primitive visuals), with a
-    slider per joint, the pose and manipulability of a chosen link, and a DH table editor."""
+    slider per joint, the pose and manipulability of a chosen link, a draggable IK target for
+    that link, and a DH table editor."""
     return _page(request, "")
 
 

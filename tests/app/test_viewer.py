@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 
 from tests.live import LiveServer
-from tests.paths import REPO
+from tests.paths import REPO, TESTS
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMEDRIVER = Path("/usr/bin/chromedriver")
-ARTIFACTS = Path(__file__).parent / "artifacts"
+ARTIFACTS = TESTS / "artifacts"  # screenshots; ignored by git (tests/artifacts/.gitignore)
 
 #: seconds to wait for the page to reach a state
 PAGE_TIMEOUT = 60.0
@@ -42,7 +42,7 @@ try:
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.by import By
-    from selenium.webdriver.support.ui import WebDriverWait
+    from selenium.webdriver.support.ui import Select, WebDriverWait
 except ImportError:  # pragma: no cover - the test extra installs it
     webdriver = None
 
@@ -325,6 +325,225 @@ def test_dh_editor_builds_shows_and_downloads_a_model(server, browser):
     assert _severe_console(browser) == []
 
 
+#: IK target tests: the page's answer is the service's, whose tolerance is 1e-6 (m, rad)
+IK_POSITION_TOL = 1e-5
+IK_ROTATION_TOL = 1e-5
+#: a UR5 configuration off its singularities (wrist_2 != 0, elbow bent)
+UR5_Q_KNOWN = [0.3, -1.1, 1.3, -0.6, 0.9, 0.4]
+#: a target this far from the UR5's base is out of its reach (about 0.95 m)
+UNREACHABLE_OFFSET = [5.0, 0.0, 0.0]
+DOCS_SCREENSHOT = REPO / "docs" / "viewer_ik.png"
+
+
+def _ur5_fk(q, link: str = "tool0") -> np.ndarray:
+    from kinematics import default_catalogue, fk
+
+    return np.asarray(fk(default_catalogue().get("ur5"), q, links=[link]).poses[0, 0])
+
+
+def _pose_error(T: np.ndarray, position, quaternion) -> tuple[float, float]:
+    from kinematics.spatial import quaternion_to_matrix
+    from kinematics.spatial.rotations import rotation_angle
+
+    R = quaternion_to_matrix(quaternion["w"], quaternion["x"], quaternion["y"], quaternion["z"])
+    return float(np.linalg.norm(T[:3, 3] - np.asarray(position))), float(rotation_angle(T[:3, :3].T @ R))
+
+
+def _quaternion(T: np.ndarray) -> dict[str, float]:
+    from kinematics.spatial import matrix_to_quaternion
+
+    w, x, y, z = (float(v) for v in matrix_to_quaternion(T[:3, :3]))
+    return {"w": w, "x": x, "y": y, "z": z}
+
+
+def _slider_inputs(driver) -> list[list[float]]:
+    return driver.execute_script(
+        "return [...document.querySelectorAll('#sliders input')].map(i => [+i.value, +i.step, +i.min, +i.max])")
+
+
+def _enable_ik(driver) -> None:
+    box = driver.find_element(By.ID, "ik-enable")
+    assert not box.is_selected()
+    box.click()
+    _wait(driver, lambda d: _state(d)["ikEnabled"], "the IK target to turn on")
+
+
+@needs_browser
+def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(server, browser):
+    _open(browser, f"{server}/viewer/ur5")
+    first = _state(browser)["selectedLink"]
+    q0 = browser.execute_script("return window.viewerTest.sliderValues()")
+
+    # turning the target on puts it (and the gizmo) on the selected link's pose, and draws it
+    before = _canvas_image(browser)
+    _enable_ik(browser)
+    assert f"target of {first}" in browser.find_element(By.ID, "ik-status").text
+    target = browser.execute_script("return window.viewerTest.targetPose()")
+    position_error, rotation_error = _pose_error(_ur5_fk(q0, first), target["position"], target["quaternion"])
+    assert position_error < 1e-9 and rotation_error < 1e-7
+    time.sleep(0.2)
+    with_gizmo = _canvas_image(browser)
+    diff = np.abs(np.asarray(with_gizmo, dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30
+    assert diff.mean() > MIN_CHANGED_FRACTION, f"the gizmo changed only {diff.mean():.4%} of the canvas"
+
+    # picking another link in the list moves the target onto it
+    Select(browser.find_element(By.ID, "link-list")).select_by_value("tool0")
+    _wait(browser, lambda d: _state(d)["selectedLink"] == "tool0"
+          and "target of tool0" in d.find_element(By.ID, "ik-status").text, "the target on tool0")
+    target = browser.execute_script("return window.viewerTest.targetPose()")
+    position_error, rotation_error = _pose_error(_ur5_fk(q0), target["position"], target["quaternion"])
+    assert position_error < 1e-9 and rotation_error < 1e-7
+    assert _state(browser)["ikRequests"] == 0  # turning it on or moving it to a link asks nothing
+
+    # a target at FK of a known configuration: the page's q reaches it (FK in Python)
+    T = _ur5_fk(UR5_Q_KNOWN)
+    position, quaternion = T[:3, 3].tolist(), _quaternion(T)
+    result = browser.execute_script("return window.viewerTest.ikTo(arguments[0], arguments[1])", position, quaternion)
+    status = browser.find_element(By.ID, "ik-status").text
+    assert status.startswith("IK: solved in ") and "position error" in status and "rotation error" in status, status
+    assert result["status"] == status
+    last = result["last"]
+    assert last["success"] is True and last["link"] == "tool0" and last["mode"] == "pose"
+    assert f"solved in {last['iterations']} iterations" in status
+    assert last["seed"] == pytest.approx(q0, abs=0)  # seeded with the sliders' values
+    np.testing.assert_allclose(last["target"]["position"], position, atol=1e-12)
+    q = browser.execute_script("return window.viewerTest.sliderValues()")
+    assert q == pytest.approx(result["q"], abs=0) and q == pytest.approx(last["q"], abs=0)
+    assert all(np.isfinite(q))
+    position_error, rotation_error = _pose_error(_ur5_fk(q), position, quaternion)
+    assert position_error < IK_POSITION_TOL and rotation_error < IK_ROTATION_TOL
+    # the sliders hold q (thumbs rounded to their step), the arm is drawn at q, the panel says so
+    for value, (thumb, step, lo, hi) in zip(q, _slider_inputs(browser)):
+        assert abs(thumb - min(max(value, lo), hi)) <= step / 2 + 1e-12
+    state = _state(browser)
+    assert state["lastQ"] == pytest.approx(q, abs=0)
+    assert state["fkResponses"] == state["fkRequests"]
+    _wait(browser, lambda d: _panel(d)["pose-link"] == "tool0"
+          and np.allclose(_numbers(_panel(d)["pose-position"]), position, atol=10 ** -PANEL_DECIMALS),
+          "the pose panel at the target")
+    labels = browser.execute_script("return [...document.querySelectorAll('#sliders .value')].map(e => e.textContent)")
+    assert [float(t.split()[0]) for t in labels] == pytest.approx(q, abs=10 ** -PANEL_DECIMALS)
+    time.sleep(0.2)
+    ARTIFACTS.mkdir(exist_ok=True)
+    shot = ARTIFACTS / "viewer_ik_solved.png"
+    browser.save_screenshot(str(shot))
+    DOCS_SCREENSHOT.write_bytes(shot.read_bytes())
+
+    # a target 5 m away: not reachable, the best effort is shown, the sliders stay finite
+    far = (np.asarray(position) + UNREACHABLE_OFFSET).tolist()
+    result = browser.execute_script("return window.viewerTest.ikTo(arguments[0], arguments[1])", far, quaternion)
+    status = browser.find_element(By.ID, "ik-status").text
+    assert status.startswith("IK: not reachable — best effort shown (position error"), status
+    last = result["last"]
+    assert last["success"] is False and last["position_error"] > 3.0
+    assert last["seed"] == pytest.approx(q, abs=0)
+    q_far = browser.execute_script("return window.viewerTest.sliderValues()")
+    assert len(q_far) == 6 and all(np.isfinite(q_far))
+    assert all(np.isfinite(v[0]) for v in _slider_inputs(browser))
+    # the answer's error is the distance of FK(q) from the target; the target stays put
+    position_error, _ = _pose_error(_ur5_fk(q_far), far, quaternion)
+    assert position_error == pytest.approx(last["position_error"], rel=1e-6)
+    np.testing.assert_allclose(browser.execute_script("return window.viewerTest.targetPose()")["position"], far,
+                               atol=1e-12)
+    _wait(browser, lambda d: _state(d)["fkResponses"] == _state(d)["fkRequests"], "the last FK answer")
+    browser.save_screenshot(str(ARTIFACTS / "viewer_ik_unreachable.png"))
+
+    # position only: any orientation of the target, the position is reached
+    Select(browser.find_element(By.ID, "ik-mode")).select_by_value("position")
+    browser.execute_script("return window.viewerTest.whenSettled()")  # the mode change re-solves
+    upside_down = {"w": 0.0, "x": 1.0, "y": 0.0, "z": 0.0}
+    result = browser.execute_script("return window.viewerTest.ikTo(arguments[0], arguments[1])", position, upside_down)
+    status = browser.find_element(By.ID, "ik-status").text
+    assert status.startswith("IK: solved in ") and "rotation error" not in status, status
+    assert result["last"]["mode"] == "position"
+    position_error, _ = _pose_error(_ur5_fk(result["q"]), position, upside_down)
+    assert position_error < IK_POSITION_TOL
+
+    # the rotate gizmo is drawn instead of the arrows
+    before = _canvas_image(browser)
+    Select(browser.find_element(By.ID, "ik-gizmo-mode")).select_by_value("rotate")
+    time.sleep(0.2)
+    diff = np.abs(np.asarray(_canvas_image(browser), dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30
+    assert diff.mean() > MIN_CHANGED_FRACTION, f"the rotate gizmo changed only {diff.mean():.4%} of the canvas"
+    browser.save_screenshot(str(ARTIFACTS / "viewer_ik_rotate.png"))
+
+    # turning it off hides the gizmo and the status; moving a slider works as before
+    browser.find_element(By.ID, "ik-enable").click()
+    _wait(browser, lambda d: not _state(d)["ikEnabled"], "the IK target to turn off")
+    assert browser.find_element(By.ID, "ik-status").text == ""
+    resources = browser.execute_script("return performance.getEntriesByType('resource').map(e => e.name)")
+    assert all(r.startswith(server + "/") for r in resources), resources
+    assert any(r.endswith("/vendor/addons/controls/TransformControls.js") for r in resources)
+    assert _severe_console(browser) == []
+    assert not browser.find_element(By.ID, "error").is_displayed()
+
+
+@needs_browser
+def test_dragging_the_gizmo_with_the_mouse_moves_the_arm(server, browser):
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    _open(browser, f"{server}/viewer/ur5")
+    # off the zero configuration's singularities, so small moves stay reachable
+    for name, value in zip(("shoulder_lift_joint", "elbow_joint", "wrist_2_joint"), (-1.2, 1.0, 0.8)):
+        _set_slider(browser, name, value)
+    _wait(browser, lambda d: _state(d)["fkResponses"] == _state(d)["fkRequests"]
+          and _state(d)["lastQ"][4] == pytest.approx(0.8, abs=1e-2), "the last FK answer")
+    q0 = browser.execute_script("return window.viewerTest.sliderValues()")
+    _enable_ik(browser)
+    link = _state(browser)["selectedLink"]
+    start = browser.execute_script("return window.viewerTest.targetPose()")
+    np.testing.assert_allclose(start["position"], _ur5_fk(q0, link)[:3, 3], atol=1e-9)
+    time.sleep(0.2)
+
+    # press on the x arrow of the gizmo, drag it to the right in small steps, release
+    handle = browser.execute_script("return window.viewerTest.gizmoHandlePoint('X')")
+    tip = browser.execute_script("return window.viewerTest.gizmoHandlePoint('X', 1.4)")
+    direction = np.array([tip["x"] - handle["x"], tip["y"] - handle["y"]])
+    direction /= np.linalg.norm(direction)
+    actions = ActionBuilder(browser, duration=20)
+    x, y = handle["x"], handle["y"]
+    actions.pointer_action.move_to_location(int(round(x)), int(round(y)))
+    actions.pointer_action.pointer_down()
+    for _ in range(15):
+        x, y = x + 4 * direction[0], y + 4 * direction[1]
+        actions.pointer_action.move_to_location(int(round(x)), int(round(y)))
+        actions.pointer_action.pause(0.03)
+    actions.pointer_action.pointer_up()
+    started = time.monotonic()
+    actions.perform()
+    elapsed = time.monotonic() - started
+    browser.execute_script("return window.viewerTest.whenSettled()")
+
+    moved = browser.execute_script("return window.viewerTest.targetPose()")
+    delta = np.asarray(moved["position"]) - np.asarray(start["position"])
+    assert delta[0] > 0.01, f"the drag did not move the target along x: {delta}"
+    assert abs(delta[1]) < 1e-9 and abs(delta[2]) < 1e-9, delta  # the x handle moves along x only
+    np.testing.assert_allclose([moved["quaternion"][k] for k in "wxyz"],
+                               [start["quaternion"][k] for k in "wxyz"], atol=1e-12)
+    state = _state(browser)
+    assert state["ikResponses"] == state["ikRequests"]
+    # asked while dragging (throttled: at most one per 100 ms) and once more at the drag end
+    assert 2 <= state["ikRequests"] <= 2 + elapsed / 0.1, (state["ikRequests"], elapsed)
+    assert state["ikLast"]["final"] is True  # the last request is the drag end's
+    assert not state["ikBusy"]
+    status = browser.find_element(By.ID, "ik-status").text
+    assert status.startswith("IK: solved in "), status
+    q = browser.execute_script("return window.viewerTest.sliderValues()")
+    assert q != q0
+    position_error, rotation_error = _pose_error(_ur5_fk(q, link), moved["position"], moved["quaternion"])
+    assert position_error < IK_POSITION_TOL and rotation_error < IK_ROTATION_TOL
+    ARTIFACTS.mkdir(exist_ok=True)
+    browser.save_screenshot(str(ARTIFACTS / "viewer_ik_drag.png"))
+
+    # a hand-made slider move afterwards puts the target back on the link
+    _set_slider(browser, "wrist_1_joint", 0.5)
+    _wait(browser, lambda d: np.allclose(d.execute_script("return window.viewerTest.targetPose()")["position"],
+                                         _ur5_fk(d.execute_script("return window.viewerTest.sliderValues()"),
+                                                 link)[:3, 3],
+                                         atol=1e-9), "the target to follow the link")
+    assert _severe_console(browser) == []
+
+
 # -- without a browser --------------------------------------------------------------------
 
 def test_page_and_static_files_reference_no_external_url(server):
@@ -343,6 +562,11 @@ def test_page_and_static_files_reference_no_external_url(server):
     imports = json.loads(page.text[start:page.text.index("</script>", start)])["imports"]
     assert httpx.get(server + imports["three"]).status_code == 200
     assert httpx.get(server + imports["three/addons/"] + "controls/OrbitControls.js").status_code == 200
+    gizmo = httpx.get(server + imports["three/addons/"] + "controls/TransformControls.js")
+    assert gizmo.status_code == 200 and "javascript" in gizmo.headers["content-type"]
+    assert "class TransformControls" in gizmo.text
+    # it imports only `three`, which the import map resolves to the vendored copy
+    assert re.findall(r"^\s*\}?\s*from\s+'([^']+)'", gizmo.text, flags=re.M) == ["three"]
 
 
 @pytest.mark.parametrize("path", ["../routes/viewer.py", "%2e%2e/%2e%2e/main.py", "nope.js", "vendor"])

@@ -1,12 +1,17 @@
 // Model viewer: draws a model of the service as a kinematic skeleton and lets a person move
-// its joints. All kinematics comes from the service (POST /models/{id}/fk, /jacobian): this
-// file does no robotics math, it only places what the service returns.
+// its joints, or drag an IK target for a link. All kinematics comes from the service
+// (POST /models/{id}/fk, /jacobian, /ik): this file does no robotics math, it only places what
+// the service returns.
 //
 // Frames: the scene is the world frame of the model (the root link's frame), z up, metres.
-// Every link pose comes from FK with links "all" as T_world_link (row-major 4x4).
+// Every link pose comes from FK with links "all" as T_world_link (row-major 4x4). There is no
+// conversion between the two: the camera's up vector is +z instead (no y-up rotation of the
+// robot), so a scene object's position and quaternion are a pose in the model's world frame,
+// which is what the IK target gizmo sends to POST /models/{id}/ik.
 
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+import { TransformControls } from "three/addons/controls/TransformControls.js";
 
 const ROOT = document.body.dataset.root || "";
 const FK_LINKS_ALL = "all";
@@ -20,6 +25,9 @@ const SELECTED_TRIAD_SCALE = 2.2;         // the selected link's triad is drawn 
 const AXIS_ARROW_FRACTION = 0.1;          // joint axis arrow length / model size
 const DIGITS = 4;
 const API_KEY_STORAGE = "kinematics-api-key";  // sessionStorage: forgotten when the tab closes
+const IK_THROTTLE_MS = 100;               // while dragging: at most one IK request per this, one in flight
+const IK_DRAG_RESTARTS = 0;               // while dragging: follow from the current q only (smooth, fast)
+const IK_TARGET_OPACITY = 0.45;           // the target's ghost triad
 
 // Test hook (tests/app/test_viewer.py reads it); also handy from the browser console.
 const state = {
@@ -35,6 +43,12 @@ const state = {
   dhBuilt: null,
   dhBuilds: 0,
   renders: 0,
+  ikEnabled: false,
+  ikRequests: 0,
+  ikResponses: 0,
+  ikBusy: false,      // a request in flight, or a target change not sent yet
+  ikLast: null,       // {link, mode, target, seed, q, success, position_error, rotation_error, iterations}
+  ikStatus: "",
 };
 window.viewerState = state;
 
@@ -96,6 +110,9 @@ const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(45, 1, 0.001, 1000);
 camera.up.set(0, 0, 1);                   // robotics convention: z up
 camera.position.set(1.5, -1.5, 1.2);
+// The IK target gizmo is created before the orbit controls so that its pointerdown handler runs
+// first: grabbing a handle turns orbiting off before the orbit controls see the press.
+const gizmo = new TransformControls(camera, renderer.domElement);
 const controls = new OrbitControls(camera, renderer.domElement);
 controls.addEventListener("change", () => requestRender());
 
@@ -199,6 +216,7 @@ let fkPending = false;
 let modelSize = 1;
 let loadToken = 0;
 let jacobianSeq = 0;
+let snapTargetAfterFk = false;  // the next settled FK answer moves the IK target onto the link
 
 function disposeRobot() {
   if (!robot) return;
@@ -409,6 +427,7 @@ function buildSliders(info) {
     input.addEventListener("input", () => {
       slider.value = Number(input.value);
       showSliderValue(slider);
+      snapTargetAfterFk = true;          // a hand-made move: the IK target follows the link
       requestFk();
     });
     showSliderValue(slider);
@@ -424,12 +443,16 @@ function showSliderValue(slider) {
   slider.div.querySelector(".value").textContent = text;
 }
 
-function setAll(values) {
+/** Set every joint (the slider thumbs snap to their step; `slider.value` keeps the exact value,
+ * which the label shows and FK, IK seeds and the test hook use). An IK answer leaves the IK
+ * target where it is; any other change moves the target onto the link. */
+function setAll(values, { fromIk = false } = {}) {
   sliders.forEach((s, i) => {
     s.value = values[i];
     s.input.value = String(values[i]);
     showSliderValue(s);
   });
+  if (!fromIk) snapTargetAfterFk = true;
   requestFk();
 }
 
@@ -457,6 +480,10 @@ async function runFk() {
     state.fkResponses += 1;
     state.lastQ = q;
     applyPoses(answer.poses);
+    if (snapTargetAfterFk && !fkPending) {
+      snapTargetAfterFk = false;
+      if (ik.enabled && !gizmo.dragging && !ikBusy()) placeTargetAtLink();
+    }
     showOutOfLimits(answer.out_of_limits || []);
     await showSelectedPose(q);
   } catch (err) {
@@ -507,6 +534,250 @@ async function showSelectedPose(q) {
   }
 }
 
+// ---------------------------------------------------------------------------- IK target
+// A TransformControls gizmo (three.js addon, vendored) moves `ikTarget`, a scene object drawn as
+// a ghost triad. Its position and quaternion are T_world_target (the scene is the world frame,
+// see the top of this file); every change while dragging asks POST /models/{id}/ik (throttled:
+// one request in flight, at most one per IK_THROTTLE_MS, restarts off so the arm follows
+// smoothly), and releasing the handle asks once more right away with the service's default
+// random restarts. Every request is seeded with the current joint values; the answer's q
+// becomes the sliders' values and is drawn by the usual FK request.
+const ikTarget = new THREE.Group();
+ikTarget.name = "ik-target";
+ikTarget.visible = false;
+scene.add(ikTarget);
+scene.add(gizmo.getHelper());
+gizmo.setSpace("world");
+
+const ik = {
+  enabled: false,
+  inFlight: false,
+  dirty: false,        // the target moved since the last request
+  final: false,        // the next request is a drag end: no throttle, restarts on
+  lastSent: -Infinity,
+  timer: null,
+  seq: 0,              // answers of an older sequence (reset target, other link/model) are dropped
+  markerSize: 0,
+};
+
+function ikBusy() {
+  return ik.inFlight || ik.dirty || ik.timer !== null;
+}
+
+function updateIkBusy() {
+  state.ikBusy = ikBusy();
+}
+
+gizmo.addEventListener("change", () => requestRender());
+gizmo.addEventListener("dragging-changed", (event) => {
+  controls.enabled = !event.value;
+  if (!event.value) requestIk({ final: true });   // drag end
+});
+gizmo.addEventListener("objectChange", () => { if (gizmo.dragging) requestIk(); });
+
+/** The target's ghost triad, sized like the selected link's triad. */
+function ensureTargetMarker() {
+  const size = modelSize * TRIAD_FRACTION * SELECTED_TRIAD_SCALE * 1.25;
+  if (ik.markerSize === size && ikTarget.children.length) return;
+  for (const child of [...ikTarget.children]) {
+    ikTarget.remove(child);
+    child.traverse((o) => { if (o.geometry) o.geometry.dispose(); if (o.material) o.material.dispose(); });
+  }
+  const ghost = (color) => new THREE.MeshBasicMaterial({ color, transparent: true, opacity: IK_TARGET_OPACITY, depthWrite: false });
+  const triad = makeTriad(size, unitArrowGeometry(0, 0.25, 0.05, 0.12), { x: ghost(COLORS.x), y: ghost(COLORS.y), z: ghost(COLORS.z) });
+  const ball = new THREE.Mesh(new THREE.SphereGeometry(size * 0.12, 16, 10), ghost(0xff7f0e));
+  ikTarget.add(triad, ball);
+  ik.markerSize = size;
+}
+
+/** Put the target on the selected link's current pose (from the last FK answer). */
+function placeTargetAtLink() {
+  const pose = lastPoses && lastPoses[state.selectedLink];
+  if (!pose) return false;
+  matrixFromRows(pose.matrix).decompose(ikTarget.position, ikTarget.quaternion, ikTarget.scale);
+  ikTarget.scale.set(1, 1, 1);
+  ikTarget.updateMatrixWorld(true);
+  requestRender();
+  return true;
+}
+
+/** The target as POST /models/{id}/ik takes it: T_world_target, quaternion as {w, x, y, z}. */
+function ikTargetPose() {
+  const p = ikTarget.position;
+  const q = ikTarget.quaternion;          // three.js keeps (x, y, z, w); the API names them
+  return { position: [p.x, p.y, p.z], quaternion: { w: q.w, x: q.x, y: q.y, z: q.z } };
+}
+
+function setIkStatus(text, kind = "") {
+  const el = $("ik-status");
+  el.textContent = text;
+  el.className = kind;
+  state.ikStatus = text;
+}
+
+/** Drop pending and in-flight IK work and put the target back on the selected link. */
+function resetIkTarget() {
+  ik.seq += 1;
+  ik.dirty = false;
+  ik.final = false;
+  clearTimeout(ik.timer);
+  ik.timer = null;
+  updateIkBusy();
+  ensureTargetMarker();
+  placeTargetAtLink();
+  if (ik.enabled) {
+    const link = state.selectedLink;
+    setIkStatus(model && model.joint_names.length === 0
+      ? "IK: this model has no moving joint."
+      : `IK: drag the gizmo to move the target of ${link}.`);
+  }
+}
+
+function setIkEnabled(on) {
+  ik.enabled = Boolean(on) && model !== null;
+  $("ik-enable").checked = ik.enabled;
+  state.ikEnabled = ik.enabled;
+  if (ik.enabled) {
+    resetIkTarget();
+    ikTarget.visible = true;
+    gizmo.attach(ikTarget);
+  } else {
+    gizmo.detach();
+    controls.enabled = true;
+    ikTarget.visible = false;
+    ik.seq += 1;
+    ik.dirty = false;
+    clearTimeout(ik.timer);
+    ik.timer = null;
+    updateIkBusy();
+    setIkStatus("");
+  }
+  requestRender();
+}
+
+/** The target moved: ask for IK now (drag end) or when the throttle allows (while dragging). */
+function requestIk({ final = false } = {}) {
+  if (!ik.enabled || !model || model.joint_names.length === 0) return;
+  ik.dirty = true;
+  ik.final = ik.final || final;
+  pumpIk();
+}
+
+function pumpIk() {
+  if (!ik.dirty || ik.inFlight) { updateIkBusy(); return; }
+  const wait = ik.lastSent + IK_THROTTLE_MS - performance.now();
+  if (!ik.final && wait > 0) {
+    if (ik.timer === null) ik.timer = setTimeout(() => { ik.timer = null; pumpIk(); }, wait);
+    updateIkBusy();
+    return;
+  }
+  clearTimeout(ik.timer);
+  ik.timer = null;
+  sendIk();
+}
+
+function fmtError(x) {
+  if (!Number.isFinite(x)) return String(x);
+  if (x === 0) return "0";
+  return Math.abs(x) < 1e-3 ? x.toExponential(1) : x.toPrecision(3);
+}
+
+async function sendIk() {
+  const id = model.id;
+  const token = loadToken;
+  const seq = ik.seq;
+  const link = state.selectedLink;
+  const mode = $("ik-mode").value;
+  const final = ik.final;
+  const target = ikTargetPose();
+  const seed = currentQ();
+  const body = { link, target, seed, mode };
+  if (!final) body.restarts = IK_DRAG_RESTARTS;
+  ik.dirty = false;
+  ik.final = false;
+  ik.inFlight = true;
+  ik.lastSent = performance.now();
+  state.ikRequests += 1;
+  updateIkBusy();
+  try {
+    const answer = await api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body });
+    state.ikResponses += 1;
+    if (token !== loadToken || seq !== ik.seq || !ik.enabled) return;
+    const byName = Object.fromEntries(answer.joint_names.map((name, i) => [name, answer.q[i]]));
+    const q = sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
+    state.ikLast = {
+      link, mode, target, seed, q, final, success: answer.success, position_error: answer.position_error,
+      rotation_error: answer.rotation_error, iterations: answer.iterations,
+    };
+    setAll(q, { fromIk: true });
+    const errors = mode === "position"
+      ? `position error ${fmtError(answer.position_error)} m`
+      : `position error ${fmtError(answer.position_error)} m, rotation error ${fmtError(answer.rotation_error)} rad`;
+    if (answer.success) {
+      setIkStatus(`IK: solved in ${answer.iterations} iterations (${errors})`, "ok");
+    } else {
+      setIkStatus(`IK: not reachable — best effort shown (${errors})`, "warn");
+    }
+  } catch (err) {
+    state.ikResponses += 1;
+    if (token !== loadToken || seq !== ik.seq) return;
+    setIkStatus("IK: the request failed (see the message above).", "warn");
+    showError(err);
+  } finally {
+    ik.inFlight = false;
+    pumpIk();                            // a target change made meanwhile (for the model shown now)
+    updateIkBusy();
+  }
+}
+
+$("ik-enable").addEventListener("change", () => setIkEnabled($("ik-enable").checked));
+$("ik-gizmo-mode").addEventListener("change", () => { gizmo.setMode($("ik-gizmo-mode").value); requestRender(); });
+$("ik-mode").addEventListener("change", () => requestIk({ final: true }));
+$("ik-reset").addEventListener("click", () => { if (ik.enabled) resetIkTarget(); });
+
+// Test hook for the IK target (tests/app/test_viewer.py); also handy from the browser console.
+function settled() {
+  return !ikBusy() && !fkInFlight && !fkPending;
+}
+
+async function whenSettled() {
+  while (!settled()) await new Promise((resolve) => setTimeout(resolve, 10));
+}
+
+window.viewerTest = {
+  setIkEnabled(on) { setIkEnabled(on); return ik.enabled; },
+  setGizmoMode(mode) { $("ik-gizmo-mode").value = mode; gizmo.setMode(mode); requestRender(); },
+  /** Move the target to `position` [x, y, z] and `quaternion` {w, x, y, z} (world frame) and
+   * run what a drag end runs; resolves when the answer is drawn. */
+  async ikTo(position, quaternion) {
+    if (!ik.enabled) throw new Error("the IK target is off");
+    ikTarget.position.set(...position);
+    ikTarget.quaternion.set(quaternion.x, quaternion.y, quaternion.z, quaternion.w).normalize();
+    ikTarget.updateMatrixWorld(true);
+    requestRender();
+    requestIk({ final: true });
+    await whenSettled();
+    return { q: currentQ(), status: state.ikStatus, last: state.ikLast };
+  },
+  whenSettled: async () => { await whenSettled(); return true; },
+  /** The exact joint values (the thumbs of the range inputs are rounded to their step). */
+  sliderValues: () => currentQ(),
+  targetPose: () => ikTargetPose(),
+  /** Client (CSS pixel) coordinates of a point on the translate gizmo's handle for `axis`
+   * ("X", "Y" or "Z"), for a real mouse drag. Mirrors TransformControls' own handle scale:
+   * its pickers run from 0 to 0.6 along the axis in units of factor * size / 4. */
+  gizmoHandlePoint(axis = "X", along = 0.45) {
+    camera.updateMatrixWorld();
+    const factor = ikTarget.position.distanceTo(camera.position)
+      * Math.min(1.9 * Math.tan(Math.PI * camera.fov / 360) / camera.zoom, 7);
+    const unit = { X: [1, 0, 0], Y: [0, 1, 0], Z: [0, 0, 1] }[axis];
+    const point = new THREE.Vector3(...unit).multiplyScalar(along * factor * gizmo.size / 4).add(ikTarget.position);
+    point.project(camera);
+    const rect = renderer.domElement.getBoundingClientRect();
+    return { x: rect.left + (point.x + 1) / 2 * rect.width, y: rect.top + (1 - point.y) / 2 * rect.height };
+  },
+};
+
 // ---------------------------------------------------------------------------- links panel
 /** The leaf link farthest (in moving joints) from the root: a sensible first selection. */
 function defaultLink(info) {
@@ -539,6 +810,7 @@ function buildLinkList(info) {
 $("link-list").addEventListener("change", () => {
   state.selectedLink = $("link-list").value;
   highlightSelected();
+  if (ik.enabled) resetIkTarget();
   requestRender();
   showSelectedPose();
 });
@@ -606,6 +878,7 @@ async function loadModel(id, { push = true } = {}) {
     $("dh-edit-current").hidden = !info.dh_table;
     document.title = `${model.id} - model viewer`;
     if (push) history.pushState({ id: model.id }, "", `${ROOT}/viewer/${encodeURIComponent(model.id)}`);
+    if (ik.enabled) resetIkTarget();
     await showSelectedPose(q);
     requestRender();
     await new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve)));
