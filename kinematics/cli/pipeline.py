@@ -55,19 +55,21 @@ def _model_options(p: argparse.ArgumentParser) -> None:
     src.add_argument("--dh", metavar="TABLE", help="a DH table (.yaml/.yml/.json), converted to URDF")
 
 
-def _io_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("input", metavar="INPUT", help="joint values: .csv, .npy or .jsonl ('-': CSV on stdin)")
+def _io_options(p: argparse.ArgumentParser, what: str = "joint values", verify: bool = True) -> None:
+    """INPUT (``what`` it holds), -o OUTPUT, formats, --chunk and (``verify``) --verify K / --seed."""
+    p.add_argument("input", metavar="INPUT", help=f"{what}: .csv, .npy or .jsonl ('-': CSV on stdin)")
     p.add_argument("-o", "--output", metavar="OUTPUT", default="-",
                    help="results file: .csv, .npy or .jsonl by extension (default: CSV on stdout)")
     p.add_argument("--input-format", choices=FORMATS, help="format of INPUT when its extension does not tell")
     p.add_argument("--output-format", choices=FORMATS, help="format of OUTPUT when its extension does not tell")
-    p.add_argument("--verify", nargs="?", type=int, const=DEFAULT_VERIFY_ROWS, default=None, metavar="K",
-                   help=f"compare K randomly sampled rows (default {DEFAULT_VERIFY_ROWS}) with Pinocchio; "
-                   f"print the largest deviations to stderr; exit 1 above {AGREEMENT_TOLERANCE:g} "
-                   "(write --verify=K, or put --verify after INPUT)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the --verify sample (default 0)")
+    if verify:
+        p.add_argument("--verify", nargs="?", type=int, const=DEFAULT_VERIFY_ROWS, default=None, metavar="K",
+                       help=f"compare K randomly sampled rows (default {DEFAULT_VERIFY_ROWS}) with Pinocchio; "
+                       f"print the largest deviations to stderr; exit 1 above {AGREEMENT_TOLERANCE:g} "
+                       "(write --verify=K, or put --verify after INPUT)")
+        p.add_argument("--seed", type=int, default=0, help="seed of the --verify sample (default 0)")
     p.add_argument("--chunk", type=int, default=CHUNK_ROWS, metavar="ROWS",
-                   help=f"configurations per chunk (default {CHUNK_ROWS}); bounds the memory used")
+                   help=f"rows per chunk (default {CHUNK_ROWS}); bounds the memory used")
 
 
 def register(sub) -> None:
@@ -153,12 +155,34 @@ def _fail(command: str, message: str, code: int) -> int:
 
 def _stream(args, command: str, compute, labels, kind: str, model: RobotModel, verify) -> int:
     """Read INPUT in chunks, ``compute(Q)`` each, write OUTPUT; optionally verify a sample."""
+    return _quietly(_stream_unguarded, args, command, compute, labels, kind, model, verify)
+
+
+def _quietly(run, *args) -> int:
+    """``run(*args)``, stopping quietly when the reader of stdout goes away (e.g. `| head`)."""
     try:
-        return _stream_unguarded(args, command, compute, labels, kind, model, verify)
-    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): stop quietly
+        return run(*args)
+    except BrokenPipeError:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return EXIT_OK
+
+
+def _endpoints(args) -> tuple:
+    """``(source, input format, destination, output format)`` of INPUT and -o OUTPUT ('-': stdin, stdout)."""
+    in_fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
+    out_fmt = "csv" if args.output == "-" and args.output_format is None else args.output_format
+    out_fmt = format_of(args.output, out_fmt)
+    source = sys.stdin if args.input == "-" else args.input
+    dest = sys.stdout if args.output == "-" else args.output
+    return source, in_fmt, dest, out_fmt
+
+
+def _timing(command: str, n: int, noun: str, args, elapsed: float) -> None:
+    """On a terminal, how many rows went where, and how fast."""
+    if sys.stderr.isatty():
+        where = "stdout" if args.output == "-" else args.output
+        print(f"{command}: {n} {noun} -> {where} in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f}/s)", file=sys.stderr)
 
 
 def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
@@ -166,11 +190,7 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
         return _fail(command, "--chunk must be positive", EXIT_USAGE)
     if args.verify is not None and args.verify < 1:
         return _fail(command, "--verify needs a positive number of rows", EXIT_USAGE)
-    in_fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
-    out_fmt = "csv" if args.output == "-" and args.output_format is None else args.output_format
-    out_fmt = format_of(args.output, out_fmt)
-    source = sys.stdin if args.input == "-" else args.input
-    dest = sys.stdout if args.output == "-" else args.output
+    source, in_fmt, dest, out_fmt = _endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     outside = 0
     t0 = time.perf_counter()
@@ -187,11 +207,8 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
                     bar.update(Q.shape[0])
         finally:
             bar.close()
-    elapsed = time.perf_counter() - t0
     n = writer.rows
-    if sys.stderr.isatty():
-        where = "stdout" if args.output == "-" else args.output
-        print(f"{command}: {n} configurations -> {where} in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f}/s)", file=sys.stderr)
+    _timing(command, n, "configurations", args, time.perf_counter() - t0)
     if outside:
         print(f"{command}: note: {outside} of {n} configurations have joint values outside the joint limits "
               "(computed anyway)", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Streaming readers and writers of trajectory files: joint values in, poses or Jacobians out.
+"""Streaming readers and writers of trajectory files: joint values (or IK targets) in, poses,
+Jacobians (or IK answers) out.
 
 A trajectory is a sequence of configurations, one per row. Readers yield it in chunks
 ``(start, Q)`` with ``Q`` a finite float64 array of shape (n, dof) in the model's
@@ -15,9 +16,24 @@ Input formats (chosen by extension, or given explicitly):
 - ``jsonl``: JSON lines, each a list of ``dof`` numbers in ``joint_names`` order or a
   ``{joint_name: value}`` object. Blank lines are skipped.
 
+Target poses (the input of inverse kinematics, ``T_world_link``) are read the same way by
+:class:`TargetRows`, in chunks ``(start, T)`` with ``T`` (n, 4, 4):
+
+- ``csv``: ``x, y, z, qw, qx, qy, qz`` per line (position in metres, orientation as a unit
+  quaternion, w first), or the 16 entries of the 4x4 matrix, row-major. A header names the
+  columns in any order (``x ... qz``, or ``T00 ... T33``; a common prefix such as ``tool0.``,
+  as FK output of one link has, is dropped).
+- ``npy``: (N, 4, 4) matrices or (N, 7) rows ``x, y, z, qw, qx, qy, qz``.
+- ``jsonl``: per line a list of 7 numbers ``x, y, z, qw, qx, qy, qz``, or a pose in any form
+  :func:`~kinematics.io.poses.pose_list` reads (a 4x4 matrix, ``{"position", "quaternion"}``,
+  ``{"xyz", "rpy"}``).
+
+A quaternion must be unit to :data:`~kinematics.tolerances.RIGID_TOLERANCE` (it is then
+normalised), a matrix a rigid transform to the same tolerance.
+
 Errors raise :class:`TrajectoryFileError` naming the file and the place: ``line L``
 (1-based, as an editor shows it) for CSV and JSON lines, ``row R`` (0-based, as numpy
-indexes it) for ``.npy``, plus the column (1-based) and its joint.
+indexes it) for ``.npy``, plus the column (1-based) and its joint (or pose component).
 
 Output formats:
 
@@ -31,6 +47,10 @@ Output formats:
   (0-2 linear x, y, z; 3-5 angular x, y, z), ``c`` the 0-based column (joint index in
   ``joint_names``), e.g. ``J00, J01, ..., J0<dof-1>, J10, ...``.
 - Jacobian, ``npy``: (N, 6, dof); ``jsonl``: per row ``{"jacobian": [[...] x 6]}``.
+- IK, ``csv``: the joint names (the answer ``q``), then ``success`` (``true``/``false``),
+  ``position_error`` (metres), ``rotation_error`` (radians) and ``iterations``.
+- IK, ``npy``: ``q`` only, (N, dof); ``jsonl``: per row ``{"q": {joint: value}, "success",
+  "position_error", "rotation_error", "iterations"}``.
 
 Floats are written so they read back exactly (shortest round-trip repr in text formats).
 The ``.npy`` writer streams: it reserves a fixed-size header, appends each chunk, and
@@ -52,11 +72,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import KinematicsError
+from ..errors import KinematicsError, PoseError
 from ..model.robot import RobotModel
-from ..spatial.rotations import matrix_to_quaternion
-from ..tolerances import MAX_ABS_JOINT_VALUE
+from ..spatial.rotations import matrix_to_quaternion, quaternion_to_matrix
+from ..spatial.transforms import is_rigid_transform
+from ..tolerances import MAX_ABS_COORDINATE, MAX_ABS_JOINT_VALUE, RIGID_TOLERANCE
 from .pose_records import pose_output
+from .poses import pose_list
 
 #: configurations processed per chunk (bounds the memory of a streaming run)
 CHUNK_ROWS = 10_000
@@ -106,30 +128,39 @@ def _short(text: str) -> str:
 
 
 # ============================================================================ readers
-class JointRows:
-    """Configurations of a trajectory file, read in chunks.
+class _RowFile:
+    """Rows of numbers of a CSV, ``.npy`` or JSON-lines file, read in chunks: the machinery
+    :class:`JointRows` and :class:`TargetRows` share (opening, chunking, CSV headers and
+    blocks, JSON lines, ``.npy`` loading, and messages naming the line or row and column).
 
-    Iterating yields ``(start, Q)``: ``Q`` (n, dof) float64, finite, columns in
-    ``model.joint_names`` order; ``start`` the 0-based index of its first configuration.
-    ``total`` is the number of configurations when known in advance (``.npy``), else None.
-    Use as a context manager (or call :meth:`close`) to release the file.
+    A subclass sets ``names`` (the columns, in the order a chunk has them) and says how a
+    header, a ``.npy`` array and a JSON line map onto them (:meth:`_header`, :meth:`_npy_rows`,
+    :meth:`_json_row`), how a block is checked (:meth:`_check`) and what a chunk yields
+    (:meth:`_chunk`). Iterating yields ``(start, chunk)``, ``start`` the 0-based index of the
+    chunk's first row; ``total`` is the number of rows when known in advance (``.npy``), else
+    None. Use as a context manager (or call :meth:`close`) to release the file.
     """
 
-    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
-        if model.dof == 0:
-            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+    #: what the rows hold, for messages (``joint values``)
+    what = "values"
+    #: how a message describes the columns when there are too many to list
+    many_columns = "one per column"
+    #: largest magnitude of a value
+    max_abs = MAX_ABS_COORDINATE
+
+    def __init__(self, source, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
         if chunk_rows < 1:
             raise ValueError("chunk_rows must be positive")
-        self.model = model
         self.format = fmt
         self.name = name
         self.chunk_rows = chunk_rows
+        self.columns = list(self.names)  # the file's columns (a CSV header may reorder them)
         self.total: int | None = None
         self._close = None
         self._array = None
         self._fh = None
         if fmt == "npy":
-            self._array = _load_npy(source, model, name)
+            self._array = self._npy_rows(_open_npy(source, name, self.what))
             self.total = int(self._array.shape[0])
         else:
             if isinstance(source, (str, os.PathLike)):
@@ -141,7 +172,7 @@ class JointRows:
             else:
                 self._fh = source
 
-    def __enter__(self) -> "JointRows":
+    def __enter__(self):
         return self
 
     def __exit__(self, *exc) -> None:
@@ -164,37 +195,71 @@ class JointRows:
         except UnicodeDecodeError as exc:
             raise TrajectoryFileError(f"{self.name}: not UTF-8 text ({exc.reason} at byte {exc.start} of a block)") from None
 
-    # ------------------------------------------------------------------ common
-    def _where_joint(self, col: int) -> str:
-        """``column C (joint 'name')`` for a 0-based column of Q."""
-        return f"joint {self.model.joint_names[col]!r}"
+    # ------------------------------------------------------------------ what a subclass says
+    def _label(self, column: str) -> str:
+        """How a message names a column (``joint 'elbow'``)."""
+        return column
 
-    def _check_finite(self, Q: np.ndarray, place) -> None:
-        """Raise naming the first non-finite value; ``place(k, j)`` names row k, column j of Q."""
-        bad = ~np.isfinite(Q)
+    def _header(self, fields: list[str], line_no: int) -> np.ndarray:
+        """Column of the file holding each of ``names``, from a CSV header (may set ``names``)."""
+        raise NotImplementedError
+
+    def _no_header(self, fields: list[str], line_no: int) -> None:
+        """A CSV without a header, whose first row is ``fields`` (may set ``names``)."""
+
+    def _npy_rows(self, arr: np.ndarray) -> np.ndarray:
+        """The (N, len(names)) rows of a ``.npy`` array (may set ``names``), or raise."""
+        raise NotImplementedError
+
+    def _json_row(self, obj, where: str, line_no: int) -> list:
+        """The numbers (one per name) of a parsed JSON line, or raise naming ``where``."""
+        raise NotImplementedError
+
+    def _chunk(self, A: np.ndarray):
+        """What a chunk yields for a checked block ``A`` (n, len(names))."""
+        return A
+
+    def _check(self, A: np.ndarray, row_of, col_of) -> None:
+        """Raise naming the first non-finite value of ``A`` (n, len(names)), or one beyond
+        ``max_abs``; ``row_of(k)`` names row k of ``A`` (``line 3``), ``col_of(j)`` is the
+        0-based file column of its column j."""
+        bad = ~np.isfinite(A)
         if bad.any():
             k, j = map(int, np.argwhere(bad)[0])
-            raise TrajectoryFileError(f"{self.name}: {place(k, j)}: value {Q[k, j]} is not finite")
-        huge = np.abs(Q) > MAX_ABS_JOINT_VALUE  # as kinematics.as_batch: no FK overflow to inf
+            raise TrajectoryFileError(f"{self.name}: {self._place(row_of, col_of, k, j)}: value {A[k, j]} is not finite")
+        huge = np.abs(A) > self.max_abs  # as kinematics.as_batch: no FK overflow to inf
         if huge.any():
             k, j = map(int, np.argwhere(huge)[0])
             raise TrajectoryFileError(
-                f"{self.name}: {place(k, j)}: value {Q[k, j]:g} is beyond +-{MAX_ABS_JOINT_VALUE:g}"
+                f"{self.name}: {self._place(row_of, col_of, k, j)}: value {A[k, j]:g} is beyond +-{self.max_abs:g}"
             )
+
+    def _place(self, row_of, col_of, k: int, j: int) -> str:
+        """``line L, column C (label)`` of row k, column j of a block."""
+        return f"{row_of(k)}, column {col_of(j) + 1} ({self._label(self.names[j])})"
+
+    def _numbers(self, values: list, where: str) -> list:
+        """``values`` of a JSON line, each a number (else raise naming its column)."""
+        for c, v in enumerate(values):
+            if type(v) is not float and type(v) is not int:
+                raise TrajectoryFileError(
+                    f"{where}, column {c + 1} ({self._label(self.names[c])}): {json.dumps(v)[:_SHOW]} is not a number"
+                )
+        return values
 
     # ------------------------------------------------------------------ npy
     def _npy_chunks(self):
         arr = self._array
         for start in range(0, arr.shape[0], self.chunk_rows):
-            Q = np.array(arr[start : start + self.chunk_rows], dtype=np.float64)
-            if Q.ndim == 1:
-                Q = Q[:, None]
-            self._check_finite(Q, lambda k, j: f"row {start + k}, column {j + 1} ({self._where_joint(j)})")
-            yield start, Q
+            A = np.array(arr[start : start + self.chunk_rows], dtype=np.float64)
+            if A.ndim == 1:
+                A = A[:, None]
+            self._check(A, lambda k: f"row {start + k}", lambda j: j)
+            yield start, self._chunk(A)
 
     # ------------------------------------------------------------------ CSV
     def _csv_chunks(self):
-        fh, model = self._fh, self.model
+        fh = self._fh
         line_no = 0
         first = None
         for line in fh:
@@ -203,15 +268,15 @@ class JointRows:
                 first = line
                 break
         if first is None:
-            return  # an empty file has no configuration
+            return  # an empty file has no row
         fields = [f.strip() for f in next(csv.reader([first]))]
         if _looks_like_header(fields):
-            self.columns = fields
-            perm = _header_permutation(fields, model, self.name, line_no)
+            perm = self._header(fields, line_no)
             pending: list[str] = []
             next_line = line_no + 1
         else:
-            self.columns = list(model.joint_names)
+            self._no_header(fields, line_no)
+            self.columns = list(self.names)
             perm = None
             pending = [first]
             next_line = line_no
@@ -228,16 +293,15 @@ class JointRows:
             if not data:
                 continue
             arr = self._parse_csv_block(raw, data, first_line, ncols)
-            Q = arr if perm is None else arr[:, perm]
-            Q = np.ascontiguousarray(Q, dtype=np.float64)
+            A = arr if perm is None else arr[:, perm]
+            A = np.ascontiguousarray(A, dtype=np.float64)
 
-            def place(k, j, raw=raw, first_line=first_line):
-                file_col = j if perm is None else int(perm[j])
-                return f"line {_nth_data_line(raw, first_line, k)}, column {file_col + 1} ({self._where_joint(j)})"
+            def row_of(k, raw=raw, first_line=first_line):
+                return f"line {_nth_data_line(raw, first_line, k)}"
 
-            self._check_finite(Q, place)
-            yield start, Q
-            start += Q.shape[0]
+            self._check(A, row_of, lambda j: j if perm is None else int(perm[j]))
+            yield start, self._chunk(A)
+            start += A.shape[0]
 
     def _parse_csv_block(self, raw: list[str], data: list[str], first_line: int, ncols: int) -> np.ndarray:
         """(n, ncols) floats of the non-blank lines ``data`` of ``raw`` (which starts at ``first_line``)."""
@@ -257,7 +321,7 @@ class JointRows:
             if len(fields) != ncols:
                 raise TrajectoryFileError(
                     f"{self.name}: {where}: expected {ncols} columns "
-                    f"({', '.join(self.columns) if len(self.columns) <= 12 else 'one per joint'}), got {len(fields)}"
+                    f"({', '.join(self.columns) if len(self.columns) <= 12 else self.many_columns}), got {len(fields)}"
                 )
             row = []
             for c, text in enumerate(fields):
@@ -265,19 +329,14 @@ class JointRows:
                     row.append(float(text.strip()))
                 except ValueError:
                     raise TrajectoryFileError(
-                        f"{self.name}: {where}, column {c + 1} ({self._column_label(c)}): {_short(text)} is not a number"
+                        f"{self.name}: {where}, column {c + 1} ({self._label(self.columns[c])}): {_short(text)} is not a number"
                     ) from None
             rows.append(row)
         return np.array(rows, dtype=np.float64).reshape(len(rows), ncols)
 
-    def _column_label(self, c: int) -> str:
-        return f"joint {self.columns[c]!r}"
-
     # ------------------------------------------------------------------ JSON lines
     def _jsonl_chunks(self):
-        fh, model, dof = self._fh, self.model, self.model.dof
-        names = model.joint_names
-        name_set = set(names)
+        fh = self._fh
         line_no = 0
         start = 0
         while True:
@@ -294,37 +353,179 @@ class JointRows:
                     obj = json.loads(line)
                 except json.JSONDecodeError as exc:
                     raise TrajectoryFileError(f"{where}: not valid JSON ({exc.msg} at character {exc.colno})") from None
-                if isinstance(obj, list):
-                    if len(obj) != dof:
-                        raise TrajectoryFileError(
-                            f"{where}: expected {dof} joint values (in the order {list(names)}), got {len(obj)}"
-                        )
-                    values = obj
-                elif isinstance(obj, dict):
-                    if obj.keys() != name_set:
-                        unknown = [k for k in obj if k not in name_set]
-                        if unknown:
-                            raise TrajectoryFileError(f"{where}: unknown joint name(s): {', '.join(map(str, unknown))}")
-                        missing = [n for n in names if n not in obj]
-                        raise TrajectoryFileError(f"{where}: missing value(s) for joint(s): {', '.join(missing)}")
-                    values = [obj[n] for n in names]
-                else:
-                    raise TrajectoryFileError(
-                        f"{where}: expected a list of {dof} numbers or a {{joint: value}} object, got {type(obj).__name__}"
-                    )
-                for c, v in enumerate(values):
-                    if type(v) is not float and type(v) is not int:
-                        raise TrajectoryFileError(
-                            f"{where}, column {c + 1} (joint {names[c]!r}): {json.dumps(v)[:_SHOW]} is not a number"
-                        )
-                rows.append(values)
+                rows.append(self._json_row(obj, where, line_no))
                 lines.append(line_no)
             if not rows:
                 continue
-            Q = np.array(rows, dtype=np.float64).reshape(len(rows), dof)
-            self._check_finite(Q, lambda k, j: f"line {lines[k]}, column {j + 1} ({self._where_joint(j)})")
-            yield start, Q
-            start += Q.shape[0]
+            A = np.array(rows, dtype=np.float64).reshape(len(rows), len(self.names))
+            self._check(A, lambda k: f"line {lines[k]}", lambda j: j)
+            yield start, self._chunk(A)
+            start += A.shape[0]
+
+
+class JointRows(_RowFile):
+    """Configurations of a trajectory file, read in chunks.
+
+    Iterating yields ``(start, Q)``: ``Q`` (n, dof) float64, finite, columns in
+    ``model.joint_names`` order; ``start`` the 0-based index of its first configuration.
+    ``total`` is the number of configurations when known in advance (``.npy``), else None.
+    Use as a context manager (or call :meth:`close`) to release the file.
+    """
+
+    what = "joint values"
+    many_columns = "one per joint"
+    max_abs = MAX_ABS_JOINT_VALUE
+
+    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
+        if model.dof == 0:
+            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        self.model = model
+        self.names = list(model.joint_names)
+        self._name_set = set(self.names)
+        super().__init__(source, fmt, name, chunk_rows)
+
+    def _label(self, column: str) -> str:
+        return f"joint {column!r}"
+
+    def _header(self, fields, line_no):
+        self.columns = fields
+        model = self.model
+
+        def hint(f: str) -> str:
+            joint = model.joint_map.get(f)
+            if joint is not None and joint.mimic is not None:
+                return " (a mimic joint: its value follows its leader)"
+            return " (a fixed joint)" if joint is not None else ""
+
+        return _column_permutation(fields, self.names, f"{self.name}: line {line_no} (header)", "joint",
+                                   f"the model's joints are {', '.join(self.names)}", hint)
+
+    def _npy_rows(self, arr):
+        dof = self.model.dof
+        if arr.ndim == 1 and dof == 1:
+            return arr
+        if arr.ndim != 2 or arr.shape[1] != dof:
+            raise TrajectoryFileError(
+                f"{self.name}: expected an array of shape (N, {dof}) (one column per joint: {', '.join(self.names)}), "
+                f"got shape {arr.shape}"
+            )
+        return arr
+
+    def _json_row(self, obj, where, line_no):
+        names, dof = self.names, len(self.names)
+        if isinstance(obj, list):
+            if len(obj) != dof:
+                raise TrajectoryFileError(f"{where}: expected {dof} joint values (in the order {names}), got {len(obj)}")
+            return self._numbers(obj, where)
+        if isinstance(obj, dict):
+            if obj.keys() != self._name_set:
+                unknown = [k for k in obj if k not in self._name_set]
+                if unknown:
+                    raise TrajectoryFileError(f"{where}: unknown joint name(s): {', '.join(map(str, unknown))}")
+                missing = [n for n in names if n not in obj]
+                raise TrajectoryFileError(f"{where}: missing value(s) for joint(s): {', '.join(missing)}")
+            return self._numbers([obj[n] for n in names], where)
+        raise TrajectoryFileError(
+            f"{where}: expected a list of {dof} numbers or a {{joint: value}} object, got {type(obj).__name__}"
+        )
+
+
+#: columns of a target pose: position (metres) and orientation quaternion (w first)
+POSE_COLUMNS = ("x", "y", "z", "qw", "qx", "qy", "qz")
+#: columns of a target given as its 4x4 matrix, row-major: ``T<r><c>``
+MATRIX_COLUMNS = tuple(f"T{r}{c}" for r in range(4) for c in range(4))
+_TARGET_COLUMNS = f"{', '.join(POSE_COLUMNS)} (or T00 ... T33: a 4x4 matrix, row-major)"
+
+
+class TargetRows(_RowFile):
+    """Target poses ``T_world_link`` of a file, read in chunks (the input of inverse kinematics).
+
+    Iterating yields ``(start, T)``: ``T`` (n, 4, 4) float64 rigid transforms; ``start`` the
+    0-based index of its first target. A row is ``x, y, z, qw, qx, qy, qz`` (the quaternion unit
+    to :data:`~kinematics.tolerances.RIGID_TOLERANCE`, then normalised) or, in CSV and ``.npy``,
+    the 16 entries of the matrix, row-major (a rigid transform). ``total`` as :class:`JointRows`.
+    """
+
+    what = "targets"
+    many_columns = "a 4x4 matrix, row-major"
+    max_abs = MAX_ABS_COORDINATE
+
+    def __init__(self, source, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
+        self.names = list(POSE_COLUMNS)  # MATRIX_COLUMNS when the file gives matrices
+        super().__init__(source, fmt, name, chunk_rows)
+
+    def _header(self, fields, line_no):
+        # FK output of one link (``tool0.x, ..., tool0.qz``) reads as targets of that link
+        prefixes = {f.rpartition(".")[0] for f in fields}
+        if len(prefixes) == 1 and prefixes != {""}:
+            fields = [f.rpartition(".")[2] for f in fields]
+        self.columns = fields
+        self.names = list(MATRIX_COLUMNS if any(f in MATRIX_COLUMNS for f in fields) else POSE_COLUMNS)
+        return _column_permutation(fields, self.names, f"{self.name}: line {line_no} (header)", "column",
+                                   f"the columns are {_TARGET_COLUMNS}")
+
+    def _no_header(self, fields, line_no):
+        if len(fields) not in (len(POSE_COLUMNS), len(MATRIX_COLUMNS)):
+            raise TrajectoryFileError(f"{self.name}: line {line_no}: expected 7 columns ({', '.join(POSE_COLUMNS)}) "
+                                      f"or 16 ({self.many_columns}), got {len(fields)}")
+        self.names = list(POSE_COLUMNS if len(fields) == len(POSE_COLUMNS) else MATRIX_COLUMNS)
+
+    def _npy_rows(self, arr):
+        if arr.ndim == 3 and arr.shape[1:] == (4, 4):
+            self.names = list(MATRIX_COLUMNS)
+            return arr.reshape(arr.shape[0], 16)
+        if arr.ndim == 2 and arr.shape[1] == len(POSE_COLUMNS):
+            return arr
+        raise TrajectoryFileError(f"{self.name}: expected an array of shape (N, 4, 4) (poses T_world_link) or (N, 7) "
+                                  f"({', '.join(POSE_COLUMNS)}), got shape {arr.shape}")
+
+    def _json_row(self, obj, where, line_no):
+        if isinstance(obj, list) and (len(obj) == len(POSE_COLUMNS) or not obj or not isinstance(obj[0], (list, dict))):
+            if len(obj) != len(POSE_COLUMNS):
+                raise TrajectoryFileError(f"{where}: expected 7 numbers ({', '.join(POSE_COLUMNS)}) or a pose, "
+                                          f"got a list of {len(obj)}")
+            return self._numbers(obj, where)
+        if isinstance(obj, (dict, list)):
+            try:
+                T, is_batch = pose_list(obj, "target")
+            except PoseError as exc:
+                raise TrajectoryFileError(f"{where}: {exc}") from None
+            if is_batch:
+                raise TrajectoryFileError(f"{where}: one pose per line, got a list of {len(T)} poses")
+            return pose_rows(T)[0].tolist()
+        raise TrajectoryFileError(f"{where}: expected a pose: a list of 7 numbers ({', '.join(POSE_COLUMNS)}), a 4x4 "
+                                  "matrix, {\"position\", \"quaternion\"} or {\"xyz\", \"rpy\"}")
+
+    def _check(self, A, row_of, col_of):
+        super()._check(A, row_of, col_of)
+        if A.shape[1] == len(POSE_COLUMNS):
+            norm = np.linalg.norm(A[:, 3:], axis=1)
+            bad = np.flatnonzero(np.abs(norm - 1.0) > RIGID_TOLERANCE)
+            if bad.size:
+                k = int(bad[0])
+                cols = ", ".join(str(col_of(j) + 1) for j in range(3, 7))
+                raise TrajectoryFileError(f"{self.name}: {row_of(k)}, columns {cols} (qw, qx, qy, qz): "
+                                          f"not a unit quaternion (norm {norm[k]:.9g})")
+            return
+        for k, T in enumerate(A.reshape(-1, 4, 4)):
+            if not is_rigid_transform(T, RIGID_TOLERANCE):
+                raise TrajectoryFileError(f"{self.name}: {row_of(k)}: not a rigid transform (rotation orthonormal "
+                                          "with det 1, last row 0 0 0 1)")
+
+    def _chunk(self, A):
+        if A.shape[1] != len(POSE_COLUMNS):
+            return A.reshape(-1, 4, 4)
+        quat = A[:, 3:] / np.linalg.norm(A[:, 3:], axis=1, keepdims=True)
+        T = np.zeros((A.shape[0], 4, 4))
+        T[:, :3, :3] = np.moveaxis(quaternion_to_matrix(*quat.T), -1, 0)
+        T[:, :3, 3] = A[:, :3]
+        T[:, 3, 3] = 1.0
+        return T
+
+
+def pose_rows(T: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) poses -> (n, 7) rows ``x, y, z, qw, qx, qy, qz`` (``qw >= 0``)."""
+    return fk_table(np.asarray(T, dtype=np.float64)[:, None])
 
 
 def _looks_like_header(fields: list[str]) -> bool:
@@ -337,28 +538,22 @@ def _looks_like_header(fields: list[str]) -> bool:
     return False
 
 
-def _header_permutation(fields: list[str], model: RobotModel, name: str, line_no: int) -> np.ndarray:
-    """Column of the file holding each joint of ``model.joint_names``, from a header line."""
-    where = f"{name}: line {line_no} (header)"
+def _column_permutation(fields: list[str], names: list[str], where: str, what: str, known: str,
+                        hint=lambda field: "") -> np.ndarray:
+    """Column of the file holding each of ``names``, from the header ``fields`` (``what`` the kind of
+    column in messages, ``known`` what the columns may be, ``hint(field)`` said of an unknown one)."""
+    index = set(names)
     seen: dict[str, int] = {}
     for c, f in enumerate(fields):
-        if f not in model.q_index:
-            hint = ""
-            joint = model.joint_map.get(f)
-            if joint is not None and joint.mimic is not None:
-                hint = " (a mimic joint: its value follows its leader)"
-            elif joint is not None:
-                hint = " (a fixed joint)"
-            raise TrajectoryFileError(
-                f"{where}, column {c + 1}: unknown joint {f!r}{hint}; the model's joints are {', '.join(model.joint_names)}"
-            )
+        if f not in index:
+            raise TrajectoryFileError(f"{where}, column {c + 1}: unknown {what} {f!r}{hint(f)}; {known}")
         if f in seen:
-            raise TrajectoryFileError(f"{where}, column {c + 1}: joint {f!r} repeats column {seen[f] + 1}")
+            raise TrajectoryFileError(f"{where}, column {c + 1}: {what} {f!r} repeats column {seen[f] + 1}")
         seen[f] = c
-    missing = [n for n in model.joint_names if n not in seen]
+    missing = [n for n in names if n not in seen]
     if missing:
-        raise TrajectoryFileError(f"{where}: no column for joint(s) {', '.join(missing)}")
-    return np.array([seen[n] for n in model.joint_names], dtype=np.intp)
+        raise TrajectoryFileError(f"{where}: no column for {what}(s) {', '.join(missing)}")
+    return np.array([seen[n] for n in names], dtype=np.intp)
 
 
 def _nth_data_line(raw: list[str], first_line: int, k: int) -> int:
@@ -372,7 +567,8 @@ def _nth_data_line(raw: list[str], first_line: int, k: int) -> int:
     raise IndexError(k)  # pragma: no cover - k always indexes a parsed line
 
 
-def _load_npy(source, model: RobotModel, name: str) -> np.ndarray:
+def _open_npy(source, name: str, what: str) -> np.ndarray:
+    """A numeric ``.npy`` array, memory-mapped (its shape is the caller's to check)."""
     try:
         arr = np.load(source, mmap_mode="r", allow_pickle=False)
     except ValueError as exc:  # object arrays, bad header
@@ -382,27 +578,28 @@ def _load_npy(source, model: RobotModel, name: str) -> np.ndarray:
     if not isinstance(arr, np.ndarray):
         raise TrajectoryFileError(f"{name}: not a single .npy array (an .npz archive?)")
     if arr.dtype.kind not in "fiu":
-        raise TrajectoryFileError(f"{name}: joint values must be numbers, the array has dtype {arr.dtype}")
-    dof = model.dof
-    if arr.ndim == 1 and dof == 1:
-        return arr
-    if arr.ndim != 2 or arr.shape[1] != dof:
-        raise TrajectoryFileError(
-            f"{name}: expected an array of shape (N, {dof}) (one column per joint: {', '.join(model.joint_names)}), "
-            f"got shape {arr.shape}"
-        )
+        raise TrajectoryFileError(f"{name}: {what} must be numbers, the array has dtype {arr.dtype}")
     return arr
+
+
+def _open_rows(path, fmt: str | None, chunk_rows: int, make):
+    """``make(source, fmt, name, chunk_rows)`` for a path (format by extension) or a text stream."""
+    if isinstance(path, (str, os.PathLike)):
+        return make(path, format_of(path, fmt), str(path), chunk_rows)
+    fmt = fmt or "csv"
+    if fmt == "npy":
+        raise TrajectoryFileError(".npy input must be a file, not a stream")
+    return make(path, fmt, getattr(path, "name", "<stream>"), chunk_rows)
 
 
 def open_joint_rows(path, model: RobotModel, fmt: str | None = None, chunk_rows: int = CHUNK_ROWS) -> JointRows:
     """Open a trajectory file (a path, or a text stream for ``csv``/``jsonl``) for chunked reading."""
-    if isinstance(path, (str, os.PathLike)):
-        fmt = format_of(path, fmt)
-        return JointRows(path, model, fmt, str(path), chunk_rows)
-    fmt = fmt or "csv"
-    if fmt == "npy":
-        raise TrajectoryFileError(".npy input must be a file, not a stream")
-    return JointRows(path, model, fmt, getattr(path, "name", "<stream>"), chunk_rows)
+    return _open_rows(path, fmt, chunk_rows, lambda src, f, name, n: JointRows(src, model, f, name, n))
+
+
+def open_target_rows(path, fmt: str | None = None, chunk_rows: int = CHUNK_ROWS) -> TargetRows:
+    """Open a file of target poses (a path, or a text stream for ``csv``/``jsonl``) for chunked reading."""
+    return _open_rows(path, fmt, chunk_rows, TargetRows)
 
 
 # ============================================================================ writers
@@ -414,6 +611,15 @@ def fk_columns(links) -> list[str]:
 def jacobian_columns(dof: int) -> list[str]:
     """CSV column names of Jacobian output: ``J<r><c>`` row-major, r in 0..5, c in 0..dof-1."""
     return [f"J{r}{c}" for r in range(6) for c in range(dof)]
+
+
+#: CSV columns of IK output after the joint values
+IK_STATUS_COLUMNS = ("success", "position_error", "rotation_error", "iterations")
+
+
+def ik_columns(joint_names) -> list[str]:
+    """CSV column names of IK output: the joint names, then :data:`IK_STATUS_COLUMNS`."""
+    return list(joint_names) + list(IK_STATUS_COLUMNS)
 
 
 def fk_table(T: np.ndarray) -> np.ndarray:
@@ -428,13 +634,15 @@ def fk_table(T: np.ndarray) -> np.ndarray:
 class ResultWriter:
     """Writes result chunks to a file (atomically: a temporary file renamed on success) or a stream.
 
-    ``kind`` is ``fk`` (chunks (n, L, 4, 4), ``labels`` the link names) or ``jacobian``
-    (chunks (n, 6, dof), ``labels`` the joint names). Use as a context manager: on an
-    exception the partial file is removed and the destination left untouched.
+    ``kind`` is ``fk`` (chunks (n, L, 4, 4), ``labels`` the link names), ``jacobian``
+    (chunks (n, 6, dof), ``labels`` the joint names) or ``ik`` (chunks are IK solutions: objects
+    with ``q`` (n, dof), ``success``, ``position_error``, ``rotation_error`` and ``iterations``
+    (n,); ``labels`` the joint names). Use as a context manager: on an exception the partial
+    file is removed and the destination left untouched.
     """
 
     def __init__(self, dest, fmt: str, kind: str, labels, name: str | None = None):
-        if kind not in ("fk", "jacobian"):
+        if kind not in ("fk", "jacobian", "ik"):
             raise ValueError(kind)
         self.fmt, self.kind, self.labels = fmt, kind, list(labels)
         self.rows = 0
@@ -463,7 +671,10 @@ class ResultWriter:
         if self.fmt == "npy":
             self._fh.write(b"\0" * NPY_HEADER_BYTES)  # the real header is written on close
         elif self.fmt == "csv":
-            cols = fk_columns(self.labels) if self.kind == "fk" else jacobian_columns(len(self.labels))
+            if self.kind == "fk":
+                cols = fk_columns(self.labels)
+            else:
+                cols = jacobian_columns(len(self.labels)) if self.kind == "jacobian" else ik_columns(self.labels)
             self._fh.write(",".join(cols) + "\n")
 
     def __enter__(self) -> "ResultWriter":
@@ -475,8 +686,12 @@ class ResultWriter:
         else:
             self.abort()
 
-    def write(self, chunk: np.ndarray) -> None:
-        """Append a chunk of results: (n, L, 4, 4) for FK, (n, 6, dof) for Jacobians."""
+    def write(self, chunk) -> None:
+        """Append a chunk of results: (n, L, 4, 4) for FK, (n, 6, dof) for Jacobians, an IK solution
+        for IK (``.npy`` output holds its ``q`` only)."""
+        solution = None
+        if self.kind == "ik":
+            solution, chunk = chunk, chunk.q
         chunk = np.asarray(chunk, dtype=np.float64)
         n = chunk.shape[0]
         if not self._started:
@@ -490,10 +705,15 @@ class ResultWriter:
         elif self.fmt == "csv":
             table = fk_table(chunk) if self.kind == "fk" else chunk.reshape(n, -1)
             buf = io.StringIO()
-            buf.writelines(",".join(map(repr, row)) + "\n" for row in table.tolist())
+            if solution is None:
+                buf.writelines(",".join(map(repr, row)) + "\n" for row in table.tolist())
+            else:
+                buf.writelines(f"{','.join(map(repr, row))},{'true' if ok else 'false'},{p!r},{r!r},{it}\n"
+                               for row, ok, p, r, it in zip(table.tolist(), *_ik_status(solution)))
             self._fh.write(buf.getvalue())
         else:
-            self._fh.write("".join(json.dumps(rec, allow_nan=True, default=np.ndarray.tolist) + "\n" for rec in self._json_records(chunk)))
+            records = self._json_records(chunk) if solution is None else self._ik_records(chunk, solution)
+            self._fh.write("".join(json.dumps(rec, allow_nan=True, default=np.ndarray.tolist) + "\n" for rec in records))
         self.rows += n
 
     def _json_records(self, chunk: np.ndarray):
@@ -503,6 +723,11 @@ class ResultWriter:
             return
         for poses in pose_output(chunk, self.labels):
             yield {"poses": poses}
+
+    def _ik_records(self, Q: np.ndarray, solution):
+        for q, ok, p, r, it in zip(Q.tolist(), *_ik_status(solution)):
+            yield {"q": dict(zip(self.labels, q)), "success": ok, "position_error": p, "rotation_error": r,
+                   "iterations": it}
 
     def close(self) -> None:
         """Finish the output (the .npy header; the rename into place)."""
@@ -514,7 +739,8 @@ class ResultWriter:
             if self.fmt == "npy":
                 tail = self._tail
                 if tail is None:  # no rows: the shape still tells what a row would hold
-                    tail = (len(self.labels), 4, 4) if self.kind == "fk" else (6, len(self.labels))
+                    L = len(self.labels)
+                    tail = {"fk": (L, 4, 4), "jacobian": (6, L), "ik": (L,)}[self.kind]
                 self._fh.seek(0)
                 self._fh.write(npy_header((self.rows,) + tail))
             self._fh.flush()
@@ -538,6 +764,15 @@ class ResultWriter:
                     pass
                 self._tmp = None
         self._fh = None
+
+
+def _ik_status(solution) -> tuple[list, list, list, list]:
+    """``success`` (bools), ``position_error``, ``rotation_error`` (floats), ``iterations`` (ints) of an
+    IK solution, as Python lists."""
+    return ([bool(s) for s in np.asarray(solution.success).tolist()],
+            np.asarray(solution.position_error, dtype=np.float64).tolist(),
+            np.asarray(solution.rotation_error, dtype=np.float64).tolist(),
+            [int(i) for i in np.asarray(solution.iterations).tolist()])
 
 
 def _umask() -> int:

@@ -1,0 +1,255 @@
+"""``kinematics ik``: inverse kinematics of every target pose of a file.
+
+Targets (CSV ``x,y,z,qw,qx,qy,qz``, ``.npy`` (N, 4, 4) or (N, 7), JSON lines of poses; see
+:class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.api.ik`;
+the answers (joint values, success, errors, iterations) go to OUTPUT, and one summary line to
+stderr. The exit code is 1 when any target was not solved.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+
+from .. import api
+from ..algorithms.ik import (
+    DEFAULT_MAX_ITERATIONS,
+    DEFAULT_POSITION_TOLERANCE,
+    DEFAULT_RESTARTS,
+    DEFAULT_ROTATION_TOLERANCE,
+    IK_MODES,
+    MIN_TOLERANCE,
+)
+from ..errors import JointValueError
+from ..io.trajectory import ResultWriter, open_target_rows
+from ..tolerances import AGREEMENT_TOLERANCE
+from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from .pipeline import ModelLoadError, _endpoints, _fail, _io_options, _model_options, _quietly, _timing, load_model
+from .progress import progress
+
+#: failed targets named on stderr at most
+SHOW_FAILED = 10
+
+TARGET_HELP = """targets (INPUT, by extension; '-' reads CSV from standard input), T_world_link of --link:
+  .csv     x,y,z,qw,qx,qy,qz per line (metres; unit quaternion, w first), or the 16 entries of the
+           4x4 matrix row-major; an optional header names the columns in any order (x ... qz or
+           T00 ... T33; a common prefix like 'tool0.', as `kinematics fk` output has, is dropped)
+  .npy     (N, 4, 4) matrices or (N, 7) rows x,y,z,qw,qx,qy,qz
+  .jsonl   per line [x,y,z,qw,qx,qy,qz], a 4x4 matrix, {"position": [x,y,z], "quaternion":
+           {"w","x","y","z"}} or {"xyz": [..], "rpy": [..]}
+  Quaternions must be unit to 1e-6 and matrices rigid. Error messages count CSV/JSON lines from
+  1 and .npy rows from 0.
+
+output (-o, by extension; CSV on stdout by default):
+  .csv     the joint names (the answer q), then success (true/false), position_error (m),
+           rotation_error (rad), iterations
+  .npy     q only, (N, dof)
+  .jsonl   {"q": {joint: value}, "success", "position_error", "rotation_error", "iterations"}"""
+
+EXIT_CODES = """exit codes:
+  0  every target solved
+  1  a target was not solved (its row has success false and the best answer found), or
+     --verify found a solved answer off its target by more than the tolerance + 1e-9
+  2  bad usage or bad input: a malformed file (the message names the line or row and the
+     column), a non-unit quaternion, an unknown link, an unwritable output
+  3  the model could not be loaded (unknown id, invalid URDF or DH table)"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "ik",
+        help="inverse kinematics of every target pose of a file",
+        description="Joint values putting --link at each target pose of INPUT (damped least squares "
+        "within the joint limits, with random restarts), streamed in chunks. Prints one summary line "
+        "to stderr: 'ik: solved S/N targets (X%); worst position error E m, worst rotation error R rad "
+        "(of the solved); median iterations M'.",
+        epilog=TARGET_HELP + "\n\nexamples:\n"
+        "  kinematics ik --model panda --link panda_link8 targets.csv -o q.csv\n"
+        "  kinematics ik --model ur5 --link tool0 T.npy -o q.npy --restarts 100 --verify\n"
+        "  kinematics ik --dh kinematics/io/presets/planar_2r.yaml --link tool --mode position xy.csv\n\n"
+        + EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _model_options(p)
+    p.add_argument("--link", metavar="NAME", help="the link placed at the targets (default: the model's first leaf link)")
+    p.add_argument("--mode", choices=IK_MODES, default="pose",
+                   help="pose: position and orientation; position: the position only (default pose)")
+    p.add_argument("--position-tolerance", type=float, default=DEFAULT_POSITION_TOLERANCE, metavar="M",
+                   help=f"metres (default {DEFAULT_POSITION_TOLERANCE:g})")
+    p.add_argument("--rotation-tolerance", type=float, default=DEFAULT_ROTATION_TOLERANCE, metavar="RAD",
+                   help=f"radians (default {DEFAULT_ROTATION_TOLERANCE:g}; ignored in position mode)")
+    p.add_argument("--max-iterations", type=int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
+                   help=f"steps per attempt (default {DEFAULT_MAX_ITERATIONS})")
+    p.add_argument("--restarts", type=int, default=DEFAULT_RESTARTS, metavar="N",
+                   help=f"random restarts after the first attempt (default {DEFAULT_RESTARTS})")
+    p.add_argument("--random-seed", type=int, default=0, metavar="N",
+                   help="seed of the restarts' draws (default 0; the same inputs give the same answers)")
+    p.add_argument("--seed", metavar="Q1,Q2,...",
+                   help="starting joint values for every target, dof numbers in joint order (default: the "
+                   "middle of the limits; write --seed=-0.5,... when the first is negative)")
+    _io_options(p, what="target poses", verify=False)
+    p.add_argument("--verify", action="store_true",
+                   help="also measure every answer with Pinocchio's FK; exit 1 when a solved answer is off "
+                   f"its target by more than the tolerance + {AGREEMENT_TOLERANCE:g}")
+    p.set_defaults(func=run_ik)
+
+
+def run_ik(args) -> int:
+    try:
+        model = load_model(args)
+    except ModelLoadError as exc:
+        return _fail("ik", str(exc), EXIT_MODEL)
+    problem = _bad_option(args)
+    if problem:
+        return _fail("ik", problem, EXIT_USAGE)
+    if model.dof == 0:
+        return _fail("ik", f"model {model.name!r} has no moving joint", EXIT_USAGE)
+    link = args.link or model.leaf_links[0]
+    api.resolve_links(model, [link])  # unknown link: UnknownLinkError (exit 2) before reading anything
+    seed = None
+    if args.seed is not None:
+        try:
+            seed, _ = api.joint_batch(model, [float(v) for v in args.seed.split(",")])
+        except ValueError:
+            return _fail("ik", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
+        except JointValueError as exc:
+            return _fail("ik", f"--seed: {exc}", EXIT_USAGE)
+    return _quietly(_solve, args, model, link, seed)
+
+
+def _bad_option(args) -> str | None:
+    if args.chunk < 1:
+        return "--chunk must be positive"
+    for option, tol in (("--position-tolerance", args.position_tolerance),
+                        ("--rotation-tolerance", args.rotation_tolerance)):
+        if not (math.isfinite(tol) and tol >= MIN_TOLERANCE):
+            return f"{option} must be a finite number of at least {MIN_TOLERANCE:g}"
+    if args.max_iterations < 1:
+        return "--max-iterations must be at least 1"
+    if args.restarts < 0:
+        return "--restarts must be at least 0"
+    return None
+
+
+def _solve(args, model, link: str, seed) -> int:
+    source, in_fmt, dest, out_fmt = _endpoints(args)
+    summary = _Summary(args)
+    t0 = time.perf_counter()
+    with open_target_rows(source, in_fmt, args.chunk) as targets:
+        bar = progress(total=targets.total, desc="ik", unit="target")
+        try:
+            with ResultWriter(dest, out_fmt, "ik", model.joint_names) as writer:
+                for start, T in targets:
+                    answer = api.ik(model, T, link=link, seed=seed, mode=args.mode,
+                                    position_tolerance=args.position_tolerance,
+                                    rotation_tolerance=args.rotation_tolerance,
+                                    max_iterations=args.max_iterations, restarts=args.restarts,
+                                    random_seed=args.random_seed, verify=args.verify)
+                    writer.write(answer.solution)
+                    summary.add(start, answer)
+                    bar.update(T.shape[0])
+        finally:
+            bar.close()
+    _timing("ik", writer.rows, "targets", args, time.perf_counter() - t0)
+    return summary.report()
+
+
+class _Summary:
+    """What the run found, accumulated chunk by chunk in bounded memory."""
+
+    def __init__(self, args):
+        self.args = args
+        self.pose = args.mode == "pose"
+        self.total = self.solved = 0
+        self.worst_position = self.worst_rotation = 0.0
+        self.iterations: dict[int, int] = {}  # iterations -> how many targets took them
+        self.failed: list[int] = []  # the first SHOW_FAILED failed rows
+        self.reference = None
+        self.verify_position = self.verify_rotation = 0.0
+        self.verify_off: list[int] = []  # solved rows Pinocchio puts off target (the first few)
+        self.verify_off_count = 0
+
+    def add(self, start: int, answer) -> None:
+        sol = answer.solution
+        ok = np.asarray(sol.success, dtype=bool)
+        n = ok.size
+        self.total += n
+        self.solved += int(ok.sum())
+        if ok.any():
+            self.worst_position = max(self.worst_position, float(sol.position_error[ok].max()))
+            self.worst_rotation = max(self.worst_rotation, float(sol.rotation_error[ok].max()))
+        values, counts = np.unique(np.asarray(sol.iterations, dtype=np.int64), return_counts=True)
+        for v, c in zip(values.tolist(), counts.tolist()):
+            self.iterations[v] = self.iterations.get(v, 0) + c
+        if len(self.failed) < SHOW_FAILED:
+            self.failed += (start + np.flatnonzero(~ok)[: SHOW_FAILED - len(self.failed)]).tolist()
+        if answer.verification is not None:
+            self._add_verification(start, ok, answer.verification)
+
+    def _add_verification(self, start: int, ok: np.ndarray, ver: dict) -> None:
+        args = self.args
+        self.reference = ver["reference"]
+        position, rotation = np.asarray(ver["position_error"]), np.asarray(ver["rotation_error"])
+        off = position > args.position_tolerance + AGREEMENT_TOLERANCE
+        if self.pose:
+            off |= rotation > args.rotation_tolerance + AGREEMENT_TOLERANCE
+        off &= ok
+        if ok.any():
+            self.verify_position = max(self.verify_position, float(position[ok].max()))
+            self.verify_rotation = max(self.verify_rotation, float(rotation[ok].max()))
+        self.verify_off_count += int(off.sum())
+        if len(self.verify_off) < SHOW_FAILED:
+            self.verify_off += (start + np.flatnonzero(off)[: SHOW_FAILED - len(self.verify_off)]).tolist()
+
+    def report(self) -> int:
+        """Print the verification and the summary line; the exit code."""
+        code = EXIT_OK
+        failed = self.total - self.solved
+        if failed:
+            more = ", ..." if failed > len(self.failed) else ""
+            print(f"ik: not solved (0-based rows): {', '.join(map(str, self.failed))}{more}", file=sys.stderr)
+            code = EXIT_DISAGREE
+        if self.args.verify and self.total:
+            rotation = f", worst rotation error {self.verify_rotation:.3g} rad" if self.pose else ""
+            print(f"ik: verify: {self.solved} solved answers vs {self.reference}: worst position error "
+                  f"{self.verify_position:.3g} m{rotation}", file=sys.stderr)
+            if self.verify_off_count:
+                more = ", ..." if self.verify_off_count > len(self.verify_off) else ""
+                print(f"ik: verify: FAIL: {self.verify_off_count} solved answers are off their target by more than "
+                      f"the tolerance + {AGREEMENT_TOLERANCE:g} (0-based rows: {', '.join(map(str, self.verify_off))}"
+                      f"{more})", file=sys.stderr)
+                code = EXIT_DISAGREE
+        print(self.line(), file=sys.stderr)
+        return code
+
+    def line(self) -> str:
+        n, s = self.total, self.solved
+        if n == 0:
+            return "ik: solved 0/0 targets (no target in the input)"
+        percent = math.floor(1000 * s / n) / 10  # 99.9%, never a rounded-up 100%, while one failed
+        head = f"ik: solved {s}/{n} targets ({percent:g}%)"
+        if s:
+            rotation = f", worst rotation error {self.worst_rotation:.3g} rad" if self.pose else ""
+            errors = f"worst position error {self.worst_position:.3g} m{rotation} (of the solved)"
+        else:
+            errors = "no error to report (none solved)"
+        return f"{head}; {errors}; median iterations {_median(self.iterations):g}"
+
+
+def _median(counts: dict[int, int]) -> float:
+    """The median of values given as ``{value: how many}``."""
+    values = sorted(counts)
+    total = sum(counts.values())
+    lo_rank, hi_rank = (total - 1) // 2, total // 2  # 0-based ranks of the middle value(s)
+    seen, lo = 0, None
+    for v in values:
+        seen += counts[v]
+        if lo is None and seen > lo_rank:
+            lo = v
+        if seen > hi_rank:
+            return 0.5 * (lo + v)
+    raise ValueError("no value")  # pragma: no cover - called with at least one target
