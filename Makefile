@@ -9,7 +9,7 @@ PORT   ?= 8000
 WORKERS ?= 1
 PYTEST_ARGS ?= -n auto
 
-.PHONY: serve test install bench check clean
+.PHONY: serve test install bench bench-ik check clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -31,6 +31,11 @@ check: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.run_all
+
+# IK against the Robotics Toolbox's ik_LM and pytorch-kinematics (installs those baselines)
+bench-ik: $(STAMP)
+	$(BIN)/pip install -q -e '.[ik-baselines]'
+	$(BIN)/python -m bench.run_all --only ik --output bench/RESULTS.md
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

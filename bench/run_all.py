@@ -1,7 +1,10 @@
 """Run every benchmark and print markdown tables (``python -m bench.run_all``, ``make bench``).
 
-Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service``,
-``--output bench/RESULTS.md`` (also write the tables there, with the date and the command),
+Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik``
+(default: all but ``ik``, which needs the baselines of the ``bench`` extra and takes minutes),
+``--output bench/RESULTS.md`` (also write the tables there, with the date and the command; the
+``ik`` suite's tables go to their own file beside it, ``RESULTS_IK.md``, so that running one
+alone never overwrites the other's),
 ``--blas-threads N`` (default 1: Pinocchio's loop is single-threaded, so ours is too).
 
 To benchmark the BLAS kernel that matches this CPU, unset the OpenBLAS overrides in the
@@ -12,13 +15,18 @@ the machine table reports which kernel ran.
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 import time
 
 from .common import Report, machine_info
 
-SUITES = ("kernels", "scaling", "service")
+SUITES = ("kernels", "scaling", "service", "ik")
+#: the suites run when --only is not given
+DEFAULT_SUITES = ("kernels", "scaling", "service")
+#: suites whose tables are written to their own file, beside --output (not into it)
+SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 
@@ -26,7 +34,8 @@ NOTES_MARKER = "<!-- notes: kept by run_all -->"
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.run_all", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller batches and shorter loops")
-    parser.add_argument("--only", default=",".join(SUITES), help=f"comma-separated subset of {', '.join(SUITES)}")
+    parser.add_argument("--only", default=",".join(DEFAULT_SUITES),
+                        help=f"comma-separated subset of {', '.join(SUITES)} (default {','.join(DEFAULT_SUITES)})")
     parser.add_argument("--output", help="write the report (markdown) to this file")
     parser.add_argument("--blas-threads", type=int, default=1, help="BLAS threads for our kernels (default 1)")
     parser.add_argument("--command", help="the command line to record in the report (default: this one)")
@@ -40,33 +49,51 @@ def main(argv: list[str] | None = None) -> int:
 
     command = args.command or "python -m bench.run_all " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
     report = Report()
+    by_suite: dict[str, list[str]] = {}
     t0 = time.perf_counter()
     with threadpool_limits(limits=args.blas_threads, user_api="blas"):
         header = machine_info()
         print(header, flush=True)
         for name in suites:
             module = __import__(f"bench.{name}", fromlist=["run"])
+            first = len(report.sections)
             module.run(report, quick=args.quick)
+            by_suite[name] = report.sections[first:]
     elapsed = time.perf_counter() - t0
     print(f"\nbenchmarks took {elapsed:.0f} s", flush=True)
     if args.output:
-        notes = ""
-        try:  # keep the hand-written reading of the results below the marker
-            with open(args.output) as f:
-                old = f.read()
-            if NOTES_MARKER in old:
-                notes = old[old.index(NOTES_MARKER):]
-        except OSError:
-            pass
-        with open(args.output, "w") as f:
-            f.write("# Benchmark results\n\n")
-            f.write(f"Command: `{command}` (BLAS limited to {args.blas_threads} thread(s) by threadpoolctl; "
-                    f"the run took {elapsed:.0f} s).\n\n")
-            f.write("## Machine\n\n" + header + "\n\n## Results\n\n")
-            f.write("\n".join(report.sections))
-            if notes:
-                f.write("\n" + notes)
+        outputs: dict[str, list[str]] = {}  # file -> sections, in the order of the suites
+        for name in suites:
+            path = (os.path.join(os.path.dirname(args.output), SEPARATE_OUTPUT[name])
+                    if name in SEPARATE_OUTPUT else args.output)
+            outputs.setdefault(path, []).extend(by_suite[name])
+        for path, sections in outputs.items():
+            own = [n for n in suites if path != args.output and SEPARATE_OUTPUT.get(n) == os.path.basename(path)]
+            title = "Benchmark results" + (f" ({', '.join(own)})" if own else "")
+            write_report(path, title, sections, command, header, elapsed, args.blas_threads)
+            print(f"wrote {path}", flush=True)
     return 0
+
+
+def write_report(path: str, title: str, sections: list[str], command: str, header: str, elapsed: float,
+                 blas_threads: int) -> None:
+    """Rewrite ``path`` with these tables, keeping what follows :data:`NOTES_MARKER` in it."""
+    notes = ""
+    try:  # keep the hand-written reading of the results below the marker
+        with open(path) as f:
+            old = f.read()
+        if NOTES_MARKER in old:
+            notes = old[old.index(NOTES_MARKER):]
+    except OSError:
+        pass
+    with open(path, "w") as f:
+        f.write(f"# {title}\n\n")
+        f.write(f"Command: `{command}` (BLAS limited to {blas_threads} thread(s) by threadpoolctl; "
+                f"the run took {elapsed:.0f} s).\n\n")
+        f.write("## Machine\n\n" + header + "\n\n## Results\n\n")
+        f.write("\n".join(sections))
+        if notes:
+            f.write("\n" + notes)
 
 
 if __name__ == "__main__":

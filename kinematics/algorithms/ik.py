@@ -31,10 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..engine import ik as ik_kernel
 from ..engine.poe import compile_model
 from ..errors import KinematicsError
-from ..model.joint_values import limit_violations
+from ..model.derived import PerModel
 from ..model.robot import RobotModel
+from ..tolerances import LIMIT_TOLERANCE
 from ..spatial.rotations import rotation_angle
 from ..spatial.transforms import inverse_transform
 
@@ -47,10 +49,12 @@ DEFAULT_ROTATION_TOLERANCE = 1e-6
 DEFAULT_MAX_ITERATIONS = 100
 DEFAULT_RESTARTS = 50
 #: the smallest damping λ (added to ½|e|²): keeps steps bounded at singular configurations
-DAMPING = 1e-6
+DAMPING = 1e-9
 #: an attempt goes on until its errors are this fraction of the tolerances (one more cheap
 #: step near convergence), so that answers are not on the edge of their tolerance
 POLISH = 1e-3
+#: steps without a 1 % fall of the error after which an attempt counts as stuck and restarts
+STALL_STEPS = 12
 #: tolerances below this are refused: no FK is that exact
 MIN_TOLERANCE = 1e-12
 
@@ -77,22 +81,18 @@ def pose_errors(T: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def middle_of_limits(model: RobotModel) -> np.ndarray:
     """The default seed (dof,): the middle of each joint's limits (0 where a joint has none)."""
+    return _middles(model)
+
+
+def _middle(model: RobotModel) -> np.ndarray:
     lo, hi = model.lower_limits, model.upper_limits
     limited = np.isfinite(lo) & np.isfinite(hi)
-    return np.where(limited, 0.5 * (np.where(limited, lo, 0.0) + np.where(limited, hi, 0.0)), 0.0)
+    middle = np.where(limited, 0.5 * (np.where(limited, lo, 0.0) + np.where(limited, hi, 0.0)), 0.0)
+    middle.setflags(write=False)
+    return middle
 
 
-def _streams(targets: np.ndarray, seeds: np.ndarray, random_seed: int) -> np.ndarray:
-    """A 64-bit random-stream seed per target, a hash of its target, its seed and ``random_seed``
-    (so an answer depends only on its own inputs): the bits of each row times odd constants,
-    summed (mod 2^64), then mixed (splitmix64's finaliser)."""
-    bits = np.ascontiguousarray(np.concatenate([targets.reshape(len(targets), 16), seeds], axis=1)).view(np.uint64)
-    with np.errstate(over="ignore"):
-        odd = (np.arange(1, bits.shape[1] + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-        h = (bits * odd).sum(axis=1, dtype=np.uint64) ^ np.uint64(random_seed & 0xFFFFFFFFFFFFFFFF)
-        h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return h ^ (h >> np.uint64(31))
+_middles = PerModel(_middle)
 
 
 def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds: np.ndarray | None = None, *,
@@ -123,13 +123,14 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     if seeds is None:
         seeds = middle_of_limits(model)
     Q0 = np.ascontiguousarray(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.dof)))
+    T_root = np.ascontiguousarray(T_root)
     Q, _, _, steps = poe.kernel.ik(
-        Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous,
+        Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous, model.angular,
         mode == "position", float(position_tolerance), float(rotation_tolerance), int(max_iterations),
-        int(restarts), _streams(T_root, Q0, int(random_seed)), DAMPING, POLISH)
-    # the answer's own errors, measured by the FK kernel: success is only what they show
-    position, rotation = pose_errors(poe.fk(Q, [link])[:, 0], T_root)
-    success = (position <= position_tolerance) & ~limit_violations(model, Q).any(axis=1)
-    if mode == "pose":
-        success &= rotation <= rotation_tolerance
+        int(restarts), ik_kernel.streams(T_root, Q0, np.uint64(int(random_seed) & 0xFFFFFFFFFFFFFFFF)), DAMPING, POLISH, STALL_STEPS)
+    # the answer's own errors, measured on its pose from the FK kernel: success is only what they show
+    position, rotation, success = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    ik_kernel.measure(poe.fk(Q, [link])[:, 0], T_root, Q, model.lower_limits, model.upper_limits, LIMIT_TOLERANCE,
+                      float(position_tolerance), float(rotation_tolerance), mode == "position", position, rotation,
+                      success)
     return IKSolution(Q, success, position, rotation, steps)

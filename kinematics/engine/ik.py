@@ -12,8 +12,10 @@ multiplier). The frames come from the same ``_chunk_frames`` as FK and Jacobians
 
 **Joint limits are part of the step** (an active set): a column whose step would leave its
 limits is moved onto the limit and taken out, and the remaining columns are solved again for
-what is left of the error (the null space takes up the motion). Continuous joints wrap into
-(-π, π]. An attempt ends when the errors are within the tolerances or after ``max_iter``
+what is left of the error (the null space takes up the motion). A revolute joint whose new
+angle is outside its limits but a whole turn away from a value inside them takes that value
+instead (a joint with ±2π limits is never stuck at one end). Continuous joints wrap into
+[-π, π]. An attempt ends when the errors are within the tolerances or after ``max_iter``
 steps; then a new attempt starts from a configuration drawn uniformly within the limits, up
 to ``restarts`` times. The draws come from a splitmix64 stream per target, seeded by the
 caller (a hash of the target and the random seed), so an answer depends only on its own
@@ -140,6 +142,64 @@ def _evaluate(q, target, jint, jflt, path, D, cols, F, W, J, e, R, Rerr, rv):
 
 
 @nb.njit(**_JIT)
+def _turned_inside(v, lo, hi):
+    """Whether an angle ``v`` outside ``[lo, hi]`` is a whole number of turns from a value inside."""
+    return lo + (v - lo) % (2.0 * math.pi) <= hi
+
+
+@nb.njit(**_JIT)
+def streams(targets, seeds, random_seed):
+    """A 64-bit stream seed per row (N,): a hash of the bits of its target (N, 4, 4), its seed
+    (N, dof) and ``random_seed`` (splitmix64's mixing), so that an answer depends only on its
+    own inputs."""
+    N = targets.shape[0]
+    tb = np.ascontiguousarray(targets).reshape(N * 16).view(np.uint64)
+    sb = np.ascontiguousarray(seeds).reshape(seeds.size).view(np.uint64)
+    dof = seeds.shape[1]
+    out = np.empty(N, dtype=np.uint64)
+    for i in range(N):
+        h = np.uint64(random_seed)
+        for k in range(16):
+            h = (h ^ tb[i * 16 + k]) * _MIX1
+            h = h ^ (h >> np.uint64(29))
+        for k in range(dof):
+            h = (h ^ sb[i * dof + k]) * _MIX1
+            h = h ^ (h >> np.uint64(29))
+        h = (h ^ (h >> np.uint64(30))) * _MIX1
+        h = (h ^ (h >> np.uint64(27))) * _MIX2
+        out[i] = h ^ (h >> np.uint64(31))
+    return out
+
+
+@nb.njit(**_JIT)
+def measure(T, targets, Q, lower, upper, limit_tol, tol_p, tol_r, position_only, perr, rerr, ok):
+    """The answers' own errors and success, from their poses ``T`` (N, 4, 4) (computed by the FK
+    kernel, independently of the solver): position distance and rotation angle (atan2 of the
+    skew and symmetric parts of ``R_target^T R``) to ``targets``, and every joint of ``Q`` within
+    its limits (± ``limit_tol``)."""
+    N, dof = Q.shape
+    for i in range(N):
+        dx = targets[i, 0, 3] - T[i, 0, 3]
+        dy = targets[i, 1, 3] - T[i, 1, 3]
+        dz = targets[i, 2, 3] - T[i, 2, 3]
+        pe = math.sqrt(dx * dx + dy * dy + dz * dz)
+        m = np.empty((3, 3))
+        for r in range(3):
+            for c in range(3):
+                m[r, c] = targets[i, 0, r] * T[i, 0, c] + targets[i, 1, r] * T[i, 1, c] + targets[i, 2, r] * T[i, 2, c]
+        s = 0.5 * math.sqrt((m[2, 1] - m[1, 2]) ** 2 + (m[0, 2] - m[2, 0]) ** 2 + (m[1, 0] - m[0, 1]) ** 2)
+        cth = 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)
+        re = math.atan2(s, cth)
+        inside = True
+        for c in range(dof):
+            if Q[i, c] < lower[c] - limit_tol or Q[i, c] > upper[c] + limit_tol:
+                inside = False
+        perr[i] = pe
+        rerr[i] = re
+        ok[i] = inside and pe <= tol_p and (position_only or re <= tol_r)
+
+
+@nb.njit(**_JIT)
 def _damped_step(J, e, rows, free, lam, A, g, x):
     """Solve ``(J_f^T J_f + λ I) x_f = J_f^T e`` over the free columns (Cholesky); x = 0 elsewhere."""
     nv = J.shape[1]
@@ -188,13 +248,17 @@ def _damped_step(J, e, rows, free, lam, A, g, x):
 
 
 @nb.njit(**_JIT)
-def solve(Q, targets, lower, upper, wrap, cols, jint, jflt, path, D, mode, tol_p, tol_r, max_iter, restarts,
-          lam_min, polish, rng, perr, rerr, iters):
+def solve(Q, targets, lower, upper, wrap, angular, cols, jint, jflt, path, D, mode, tol_p, tol_r, max_iter, restarts,
+          lam_min, polish, stall, rng, perr, rerr, iters):
     """Inverse kinematics of every row: ``Q`` (N, dof) holds the seeds and receives the answers.
 
     targets: (N, 4, 4) ``T_root_link``. lower, upper: (dof,) limits (±inf: none); wrap: (dof,)
-    continuous joints. cols: (nv,) the q columns the path moves. jint, jflt, path, D: as the
-    Jacobian kernel. mode: MODE_POSE or MODE_POSITION. rng: (N,) uint64 stream seeds.
+    continuous joints; angular: (dof,) revolute and continuous joints (a whole turn changes
+    nothing). cols: (nv,) the q columns the path moves. jint, jflt, path, D: as the Jacobian
+    kernel. mode: MODE_POSE or MODE_POSITION. tol_p, tol_r: the tolerances; an attempt goes on
+    until its errors are within ``polish`` times them (a margin), but a solution within them
+    ends the search. stall: an attempt whose error has not fallen by 1 % in this many steps is
+    stuck (a local minimum, or pinned at a limit) and ends early. rng: (N,) uint64 stream seeds.
     perr, rerr, iters: (N,) written: errors of the answer and steps taken.
     """
     N, dof = Q.shape
@@ -232,16 +296,21 @@ def solve(Q, targets, lower, upper, wrap, cols, jint, jflt, path, D, mode, tol_p
                     if not (math.isfinite(lo) and math.isfinite(hi)):
                         lo, hi = -math.pi, math.pi
                     q[0, c] = lo + (hi - lo) * u
+            attempt_best = np.inf
+            since = 0
             for it in range(max_iter + 1):
                 pe, re = _evaluate(q, target, jint, jflt, path, D, cols, F, W, J, e, R, Rerr, rv)
                 score = pe / tol_p if mode == MODE_POSITION else max(pe / tol_p, re / tol_r)
+                if score < 0.99 * attempt_best:
+                    attempt_best = score
+                    since = 0
+                else:
+                    since += 1
                 if score < best_score:
                     best_score, best_pe, best_re = score, pe, re
                     for c in range(dof):
                         best[c] = q[0, c]
-                if score <= polish:
-                    break
-                if it == max_iter:
+                if score <= polish or it == max_iter or since >= stall:
                     break
                 steps += 1
                 energy = 0.0
@@ -262,7 +331,7 @@ def solve(Q, targets, lower, upper, wrap, cols, jint, jflt, path, D, mode, tol_p
                             continue
                         c = cols[k]
                         v = q[0, c] + x[k]
-                        if v < lower[c] or v > upper[c]:
+                        if (v < lower[c] or v > upper[c]) and not (angular[c] and _turned_inside(v, lower[c], upper[c])):
                             limit = lower[c] if v < lower[c] else upper[c]
                             dx = limit - q[0, c]
                             q[0, c] = limit
@@ -278,6 +347,8 @@ def solve(Q, targets, lower, upper, wrap, cols, jint, jflt, path, D, mode, tol_p
                         v = q[0, c] + x[k]
                         if wrap[c]:  # into [-π, π]
                             v -= 2.0 * math.pi * np.rint(v / (2.0 * math.pi))
+                        elif angular[c] and (v < lower[c] or v > upper[c]):  # a whole turn back inside
+                            v = lower[c] + (v - lower[c]) % (2.0 * math.pi)
                         q[0, c] = v
             if best_score <= 1.0:
                 break

@@ -51,6 +51,7 @@ from ..spatial.reference import Reference
 from ..spatial.transforms import inverse_transform
 from . import compiled
 from . import ik as ik_kernel
+from . import velocity as velocity_kernel
 from .buffers import result_array
 
 #: Configurations per chunk of the compiled kernels (a chunk's frames stay in L2).
@@ -87,6 +88,14 @@ def _axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:
         y = np.cross(z, x)
     G[:3, 0], G[:3, 1], G[:3, 2] = x, y, z
     return G
+
+
+def with_tool(D: np.ndarray, tool: np.ndarray | None) -> np.ndarray:
+    """The constant right factor(s) ``D`` (4, 4) or (L', 4, 4) times a tool offset ``T_link_tool``
+    (unchanged when ``tool`` is None)."""
+    if tool is None:
+        return D
+    return np.ascontiguousarray(np.matmul(D, np.asarray(tool, dtype=np.float64)))
 
 
 @dataclass(frozen=True)
@@ -150,6 +159,7 @@ class Kernel:
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
         self._plan_all = self.plan(None)
         self._jplans: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._jcols: dict[int, np.ndarray] = {}
         for a in (jint, jflt, G, CZ, D4):
             a.setflags(write=False)
 
@@ -179,11 +189,13 @@ class Kernel:
         return plan
 
     def fk(self, Q: np.ndarray, link_idx: np.ndarray | None = None, out: np.ndarray | None = None,
-           chunk: int = CHUNK_SIZE) -> np.ndarray:
+           chunk: int = CHUNK_SIZE, tool: np.ndarray | None = None) -> np.ndarray:
         """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof).
 
         One call of the compiled kernel (:func:`kinematics.engine.compiled.fk`) whatever N: a single
-        configuration takes the same arithmetic as a row of a batch, bit for bit.
+        configuration takes the same arithmetic as a row of a batch, bit for bit. ``tool``: a
+        constant ``T_link_tool`` (4, 4) every output is right-multiplied by (folded into the
+        constant factors: ``D @ T_link_tool``).
         """
         N = Q.shape[0]
         plan = self._plan_all if link_idx is None else self.plan(link_idx)
@@ -192,8 +204,23 @@ class Kernel:
             out = result_array((N, n_out, 4, 4))
         if N:
             Q = np.ascontiguousarray(Q, dtype=np.float64)
-            compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, plan.pose, out.reshape(N, n_out, 16),
-                        max(1, min(chunk, N)))
+            compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, with_tool(plan.pose, tool),
+                        out.reshape(N, n_out, 16), max(1, min(chunk, N)))
+        return out
+
+    # ------------------------------------------------------------------ velocities
+    def velocity(self, Q: np.ndarray, Qd: np.ndarray, link_idx: np.ndarray | None = None,
+                 tool: np.ndarray | None = None, chunk: int = CHUNK_SIZE) -> np.ndarray:
+        """Twists (N, L', 3, 6) of ``link_idx`` (None: all) for q and qdot (N, dof): ``[:, k, c]``
+        in the reference of kernel code ``c`` (``compiled.REF_*``), linear part first
+        (:func:`kinematics.engine.velocity.velocities`, one pass down the tree)."""
+        N = Q.shape[0]
+        plan = self._plan_all if link_idx is None else self.plan(link_idx)
+        out = np.zeros((N, plan.lj.shape[0], 3, 6))
+        if N and plan.order.shape[0]:
+            velocity_kernel.velocities(np.ascontiguousarray(Q, dtype=np.float64),
+                                       np.ascontiguousarray(Qd, dtype=np.float64), self._jint, self._jflt,
+                                       plan.order, plan.lj, with_tool(plan.pose, tool), out, max(1, min(chunk, N)))
         return out
 
     # ------------------------------------------------------------------ Jacobians
@@ -217,16 +244,30 @@ class Kernel:
                 self._jplans[link_index] = jp
         return jp
 
-    def jacobian(self, Q: np.ndarray, link_index: int, reference: str, chunk: int = CHUNK_SIZE) -> np.ndarray:
+    def path_columns(self, link_index: int) -> np.ndarray:
+        """The q columns the joints on a link's path drive (mimic joints: their leader's), sorted."""
+        cols = self._jcols.get(link_index)
+        if cols is None:
+            cols = np.unique(self._jint[self.path_plan(link_index)[0], compiled.J_QINDEX]).astype(np.int64)
+            cols.setflags(write=False)
+            if len(self._jcols) < PLAN_CACHE_SIZE:
+                self._jcols[link_index] = cols
+        return cols
+
+    def jacobian(self, Q: np.ndarray, link_index: int, reference: str, chunk: int = CHUNK_SIZE,
+                 tool: np.ndarray | None = None) -> np.ndarray:
         """Jacobian (N, 6, dof) of link ``link_index``, linear rows first, in ``reference``.
 
         ``reference``: ``world`` (twist at the world origin, world axes), ``local_world_aligned``
         (velocity of the link origin and angular velocity, world axes) or ``local`` (the same in
-        the link's axes); the caller has validated it.
+        the link's axes); the caller has validated it. ``tool``: ``T_link_tool`` (4, 4), the frame
+        whose Jacobian it is (Pinocchio's frame semantics: its origin is the reference point of
+        ``local_world_aligned``, its axes those of ``local``).
         """
         N = Q.shape[0]
         J = np.zeros((N, 6, Q.shape[1]))
         path, D = self.path_plan(link_index)
+        D = with_tool(D, tool)
         if N and len(path):
             Q = np.ascontiguousarray(Q, dtype=np.float64)
             compiled.jacobian(Q, self._jint, self._jflt, path, D, _REFERENCE_CODES[reference], J, max(1, min(chunk, N)))
@@ -234,8 +275,8 @@ class Kernel:
 
     # ------------------------------------------------------------------ inverse kinematics
     def ik(self, Q: np.ndarray, targets: np.ndarray, link_index: int, lower: np.ndarray, upper: np.ndarray,
-           wrap: np.ndarray, position_only: bool, tol_position: float, tol_rotation: float, max_iterations: int,
-           restarts: int, streams: np.ndarray, damping: float, polish: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           wrap: np.ndarray, angular: np.ndarray, position_only: bool, tol_position: float, tol_rotation: float, max_iterations: int,
+           restarts: int, streams: np.ndarray, damping: float, polish: float, stall: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Inverse kinematics (:func:`kinematics.engine.ik.solve`) of link ``link_index`` for targets
         ``T_root_link`` (N, 4, 4) from seeds ``Q`` (N, dof): ``(Q, position_error, rotation_error,
         steps)`` of the best configurations found. Only the path's q columns move."""
@@ -243,11 +284,11 @@ class Kernel:
         N = Q.shape[0]
         Q = np.array(Q, dtype=np.float64, order="C")
         perr, rerr, steps = np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.int64)
-        cols = np.unique(self._jint[path, compiled.J_QINDEX]).astype(np.int64)
+        cols = self.path_columns(link_index)
         if N == 0 or len(cols) == 0:  # nothing moves the link: the seeds stay (the caller measures them)
             return Q, perr, rerr, steps
-        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, cols,
+        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, angular, cols,
                         self._jint, self._jflt, path, D, ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE,
-                        tol_position, tol_rotation, max_iterations, restarts, damping, polish, streams, perr, rerr,
-                        steps)
+                        tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall, streams, perr,
+                        rerr, steps)
         return Q, perr, rerr, steps

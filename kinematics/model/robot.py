@@ -152,7 +152,15 @@ class RobotModel:
     @cached_property
     def continuous(self) -> np.ndarray:
         """(dof,) bool, read-only: which joints of q are continuous (unbounded angles)."""
-        mask = np.array([self.joint_map[n].type == "continuous" for n in self.joint_names], dtype=bool)
+        return self._type_mask({"continuous"})
+
+    @cached_property
+    def angular(self) -> np.ndarray:
+        """(dof,) bool, read-only: which joints of q are angles (revolute or continuous)."""
+        return self._type_mask({"revolute", "continuous"})
+
+    def _type_mask(self, types: set[str]) -> np.ndarray:
+        mask = np.array([self.joint_map[n].type in types for n in self.joint_names], dtype=bool)
         mask.setflags(write=False)
         return mask
 

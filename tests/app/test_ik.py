@@ -50,7 +50,7 @@ def test_batch_json_with_an_unreachable_target(api_client, ur5):
     body = r.json()
     assert body["success"] == [True, True, False, True]
     assert len(body["q"]) == 4 and all(np.isfinite(body["q"][2]))
-    assert body["position_error"][2] > 2.5 and body["iterations"][2] == 3 * 50
+    assert body["position_error"][2] > 2.5 and 0 < body["iterations"][2] <= 3 * 50
 
 
 def test_npy_in_npz_out(api_client, ur5):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from kinematics import api, compile_model, default_catalogue, load_urdf
-from kinematics.algorithms.ik import inverse_kinematics, middle_of_limits, pose_errors
+from kinematics.algorithms.ik import STALL_STEPS, inverse_kinematics, middle_of_limits, pose_errors
 from kinematics.errors import BudgetError, JointValueError, KinematicsError, PoseError, UnknownLinkError
 from kinematics.model.joint_values import limit_violations
 from kinematics.spatial.rotations import rpy_to_matrix
@@ -120,7 +120,8 @@ def test_unreachable_target_best_effort(catalogue):
     sol = inverse_kinematics(model, "tool0", T, max_iterations=30, restarts=3)
     assert not sol.success[0]
     assert np.all(np.isfinite(sol.q)) and 3.5 < sol.position_error[0] < 5.0  # the best found: as near as it gets
-    assert sol.iterations[0] == 4 * 30  # every attempt used up
+    # four attempts, each ended by its step limit or as stuck (no progress for STALL_STEPS steps)
+    assert 4 * (STALL_STEPS + 1) <= sol.iterations[0] <= 4 * 30
     assert not limit_violations(model, sol.q).any()
 
 
