@@ -219,6 +219,18 @@ def _joint_frames(F, j, p, revolute, jf, s, c, th, m):
                 o3[i] = a0 * c03 + a1 * c13 + a2 * c23 + p3[i] + th[i] * z  # t' = t + θ z
 
 
+@nb.njit(inline="always", **_JIT)
+def joint_column(Fj, i, revolute, ox, oy, oz):
+    """A joint's Jacobian column ``(v, ω)`` at the point ``o`` (world axes), from its axis frame
+    ``Fj`` (configuration ``i`` of a chunk): ``(ω × (o - p), ω)`` for a revolute joint (``p`` on
+    the axis), ``(axis, 0)`` for a prismatic one."""
+    wx, wy, wz = Fj[2, i], Fj[6, i], Fj[10, i]  # the joint axis, world
+    if revolute:
+        dx, dy, dz = ox - Fj[3, i], oy - Fj[7, i], oz - Fj[11, i]
+        return wy * dz - wz * dy, wz * dx - wx * dz, wx * dy - wy * dx, wx, wy, wz
+    return wx, wy, wz, 0.0, 0.0, 0.0
+
+
 #: Jacobian references (codes of the compiled kernel)
 REF_WORLD, REF_LOCAL_WORLD_ALIGNED, REF_LOCAL = 0, 1, 2
 
@@ -267,17 +279,7 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
                 r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
             for jj in range(k):
                 j = path[jj]
-                Fj = F[j]
-                wx, wy, wz = Fj[2, i], Fj[6, i], Fj[10, i]  # the joint axis, world
-                if jint[j, J_KIND] == REVOLUTE:  # revolute: (ω × (o - p), ω), p a point on the axis
-                    dx, dy, dz = ox - Fj[3, i], oy - Fj[7, i], oz - Fj[11, i]
-                    vx = wy * dz - wz * dy
-                    vy = wz * dx - wx * dz
-                    vz = wx * dy - wy * dx
-                    ax, ay, az = wx, wy, wz
-                else:  # prismatic: (axis, 0)
-                    vx, vy, vz = wx, wy, wz
-                    ax = ay = az = 0.0
+                vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
                 if ref == REF_LOCAL:  # R^T v: component c = (column c of R) · v
                     vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
                                   r02 * vx + r12 * vy + r22 * vz)

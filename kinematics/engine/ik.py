@@ -32,7 +32,7 @@ import math
 import numba as nb
 import numpy as np
 
-from .compiled import J_KIND, J_MULT, J_QINDEX, REVOLUTE, _chunk_frames, _scratch
+from .compiled import J_KIND, J_MULT, J_QINDEX, REVOLUTE, _chunk_frames, _scratch, joint_column
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 
@@ -117,14 +117,7 @@ def _evaluate(q, target, jint, jflt, path, D, cols, F, W, J, e, R, Rerr, rv):
     for jj in range(path.shape[0]):
         j = path[jj]
         Fj = F[j]
-        wx, wy, wz = Fj[2, 0], Fj[6, 0], Fj[10, 0]
-        if jint[j, J_KIND] == REVOLUTE:
-            dx, dy, dz = o[0] - Fj[3, 0], o[1] - Fj[7, 0], o[2] - Fj[11, 0]
-            vx, vy, vz = wy * dz - wz * dy, wz * dx - wx * dz, wx * dy - wy * dx
-            ax, ay, az = wx, wy, wz
-        else:
-            vx, vy, vz = wx, wy, wz
-            ax = ay = az = 0.0
+        vx, vy, vz, ax, ay, az = joint_column(Fj, 0, jint[j, J_KIND] == REVOLUTE, o[0], o[1], o[2])
         col = jint[j, J_QINDEX]
         k = 0
         while cols[k] != col:  # the column's place among the moving columns (nv is small)
