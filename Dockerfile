@@ -43,13 +43,14 @@ ENV PATH=/opt/venv/bin:$PATH \
     PIP_DISABLE_PIP_VERSION_CHECK=1
 WORKDIR /src
 # Dependencies first, from pyproject.toml alone (a stub package), so that editing the
-# source does not re-download ~700 MB of wheels.
+# source does not re-download ~700 MB of wheels. The logs and dask extras make the image
+# read ROS bags and Parquet and serve as the worker image of a Dask cluster.
 COPY pyproject.toml README.md ./
 RUN --mount=type=cache,target=/root/.cache/pip \
     mkdir -p kinematics app \
     && touch kinematics/__init__.py app/__init__.py \
     && pip install -q --upgrade pip setuptools wheel \
-    && pip install -q . \
+    && pip install -q '.[logs,dask]' \
     && pip uninstall -y -q kinematics-service \
     && rm -rf kinematics app build *.egg-info
 # What the service never reads, removed from the venv (~600 MB): the meshes of the

@@ -14,7 +14,9 @@ PYTEST_ARGS ?= -n auto
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[test,bench]'
+	$(BIN)/pip install -q -e '.[test,bench,logs,dask]'
+	# robot description files the tests read (MJCF of robosuite and gymnasium, xacro of rtb-data): files only
+	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 

@@ -18,6 +18,12 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from kinematics.errors import (
+    ArchiveError,
+    ArchiveTooLargeError,
+    ExpansionLimitError,
+    MJCFError,
+    XacroError,
+    AxesError,
     BasePoseError,
     BudgetError,
     DHError,
@@ -26,8 +32,13 @@ from kinematics.errors import (
     LimitError,
     ModelTooLargeError,
     NoDHFormError,
+    PoEError,
     PoseError,
     ReferenceUnavailableError,
+    RepresentationSingularityError,
+    SymbolicError,
+    SymbolicTimeoutError,
+    TaskError,
     UnknownLinkError,
     UnknownModelError,
     URDFError,
@@ -45,8 +56,19 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (UnknownLinkError, 404, "unknown-link", "Unknown link"),
     (BudgetError, 413, "too-large", "Content too large"),
     (ModelTooLargeError, 413, "model-too-large", "Model over the size limit"),
+    (ExpansionLimitError, 413, "expansion-too-large", "xacro expansion over its limits"),
+    (ArchiveTooLargeError, 413, "archive-too-large", "Archive over its size limits"),
+    (XacroError, 422, "invalid-xacro", "Invalid xacro, or refused by its sandbox"),
+    (ArchiveError, 422, "invalid-archive", "Invalid or hostile description archive"),
+    (MJCFError, 422, "invalid-mjcf", "Invalid or unsupported MJCF"),
     (URDFError, 422, "invalid-urdf", "Invalid or unsupported URDF"),
     (DHError, 422, "invalid-dh-table", "Invalid Denavit-Hartenberg table"),
+    (PoEError, 422, "invalid-poe-model", "Invalid product-of-exponentials description"),
+    (AxesError, 422, "invalid-axes-model", "Invalid zero-configuration axes description"),
+    (SymbolicTimeoutError, 422, "symbolic-timeout", "The closed forms took too long"),
+    (SymbolicError, 422, "invalid-symbolic-request", "Closed forms cannot be derived"),
+    (RepresentationSingularityError, 422, "representation-singularity", "Singular task representation"),
+    (TaskError, 422, "invalid-task-representation", "Invalid task representation"),
     (NoDHFormError, 422, "no-dh-form", "The model has no Denavit-Hartenberg form"),
     (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
@@ -107,6 +129,8 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     detail = str(exc)
     if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
+    if isinstance(exc, SymbolicTimeoutError):
+        return problem(status, title, detail, slug, model=model_id, field="simplify", limit=exc.timeout)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))
 
 

@@ -32,7 +32,7 @@ from .settings import Settings
 log = logging.getLogger("app")
 
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
-ROUTERS = ("health", "models", "kinematics", "ik", "viewer")
+ROUTERS = ("health", "models", "kinematics", "ik", "velocity", "workspace", "symbolic", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
 DESCRIPTION = """Forward kinematics, Jacobians and inverse kinematics of robots (URDF or Denavit-Hartenberg),
 computed with product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
@@ -110,7 +110,7 @@ def _configure_logging(level: str) -> None:
 #: response headers a browser page on another origin may read (the .npy answers' metadata)
 EXPOSED_HEADERS = ["Location", "X-Links", "X-Joint-Names", "X-Link", "X-Reference", "X-Out-Of-Limits",
                    "X-Links-Omitted", "X-Joint-Names-Omitted", "X-Verification-Reference", "X-Max-Position-Error",
-                   "X-Max-Rotation-Error", "X-Max-Jacobian-Error"]
+                   "X-Max-Rotation-Error", "X-Max-Jacobian-Error", "X-Twist-References", "X-Max-Velocity-Error", "X-Columns"]
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

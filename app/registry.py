@@ -16,6 +16,15 @@ Layout (``<data_dir>/models/``), one content file per model plus a small JSON si
   digits of its SHA-256, so the same file has the same id on every replica;
 * ``dh-<16 hex>.dh.json`` a DH table (the canonical JSON of :func:`kinematics.io.dh_table.table_to_dict`,
   angles in radians, keys sorted); the id hashes that canonical JSON;
+* ``poe-<16 hex>.poe.json``, ``axes-<16 hex>.axes.json`` a product-of-exponentials or a
+  zero-configuration axes description, stored and hashed the same way (their canonical JSON:
+  space screws / every field explicit, radians; :data:`DESCRIPTIONS`);
+* ``x-``, ``m-``, ``a-<16 hex>.urdf`` a model read from xacro text, MJCF or a description
+  archive (``POST /models``, told apart by content): the file holds the URDF it became
+  (expanded or generated); the id hashes what was sent (:func:`upload_id`: the bytes, the
+  xacro arguments, the archive entry); the sidecar is required for these and records
+  ``upload``: ``format``, ``container``, ``entry``, ``args``, ``warnings`` and the SHA-256 of
+  the URDF (``urdf_sha256``, checked on every read);
 * ``<id>.meta.json``      ``{"name", "source", "created"}`` (optional; written first).
 
 Writes are atomic (temporary file in the same directory, fsync, ``os.replace``); the
@@ -33,14 +42,16 @@ import os
 import re
 import tempfile
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from kinematics import api
 from kinematics.errors import KinematicsError, UnknownModelError
 from kinematics.io import dh_table as dh
 from kinematics.io.catalogue import Catalogue
+from kinematics.io.description import load_description
 from kinematics.io.urdf import parse_urdf
 from kinematics.model.robot import RobotModel
 
@@ -59,6 +70,9 @@ _MODEL_ID = re.compile(MODEL_ID_PATTERN)
 ID_HASH_DIGITS = 16
 UPLOAD_PREFIX, DH_PREFIX = "u-", "dh-"
 _UPLOAD_ID = re.compile(rf"^{UPLOAD_PREFIX}[0-9a-f]{{{ID_HASH_DIGITS}}}$")
+#: id prefixes of models read from xacro text, MJCF and description archives (stored as their URDF)
+UPLOAD_PREFIXES = {"xacro": "x-", "mjcf": "m-", "archive": "a-"}
+_CONVERTED_ID = re.compile(rf"^[xma]-[0-9a-f]{{{ID_HASH_DIGITS}}}$")
 _DH_ID = re.compile(rf"^{DH_PREFIX}[0-9a-f]{{{ID_HASH_DIGITS}}}$")
 URDF_SUFFIX, DH_SUFFIX, META_SUFFIX = ".urdf", ".dh.json", ".meta.json"
 
@@ -67,21 +81,55 @@ SOURCE_UPLOAD, SOURCE_DH = "upload", "dh"
 DH_CANONICAL_ANGLES = "radians"
 
 
+@dataclass(frozen=True)
+class Description:
+    """A kind of model description stored as canonical JSON: ``<prefix><16 hex><suffix>``; the
+    model's ``source`` is ``kind`` (:func:`kinematics.api.model_from_description` reads it)."""
+
+    kind: str
+    prefix: str
+    suffix: str
+
+    def matches(self, model_id: str) -> bool:
+        return re.fullmatch(rf"{re.escape(self.prefix)}[0-9a-f]{{{ID_HASH_DIGITS}}}", model_id) is not None
+
+
+#: the stored description kinds, by kind: DH tables, product-of-exponentials, zero-configuration axes
+DESCRIPTIONS: dict[str, Description] = {
+    "dh": Description("dh", DH_PREFIX, DH_SUFFIX),
+    "poe": Description("poe", "poe-", ".poe.json"),
+    "axes": Description("axes", "axes-", ".axes.json"),
+}
+#: sources of stored (deletable) models
+STORED_SOURCES = (SOURCE_UPLOAD, *DESCRIPTIONS)
+
+
+def _description_of(model_id: str) -> Description | None:
+    return next((d for d in DESCRIPTIONS.values() if d.matches(model_id)), None)
+
+
+def _is_stored_id(model_id: str) -> bool:
+    return bool(_UPLOAD_ID.match(model_id) or _CONVERTED_ID.match(model_id)) or _description_of(model_id) is not None
+
+
 @dataclass(frozen=True, eq=False)
 class ModelRecord:
     """A registered model and where it comes from."""
 
     id: str
     name: str
-    source: str  # example-robot-data | preset | upload | dh
+    source: str  # example-robot-data | preset | upload | dh | poe | axes
     model: RobotModel
     created: str | None = None
     dh_table: dict[str, Any] | None = None
     file_key: tuple | None = field(default=None, repr=False)  # (inode, mtime_ns, size) of the content file
+    description: dict[str, Any] | None = None  # the PoE or axes description (canonical) of such a model
+    #: how a model read from xacro, MJCF or an archive was sent: ``container``, ``entry``, ``args``
+    upload: dict[str, Any] | None = None
 
     @property
     def bundled(self) -> bool:
-        return self.source not in (SOURCE_UPLOAD, SOURCE_DH)
+        return self.source not in STORED_SOURCES
 
 
 @dataclass(frozen=True)
@@ -104,6 +152,20 @@ def urdf_id(data: bytes) -> str:
     return UPLOAD_PREFIX + hashlib.sha256(data).hexdigest()[:ID_HASH_DIGITS]
 
 
+def upload_id(kind: str, data: bytes, args: dict[str, str] | None, entry: str | None) -> str:
+    """Id of a model read from xacro text, MJCF or an archive (``kind``): ``x-``, ``m-`` or ``a-`` + 16 hex
+    digits of the SHA-256 of the canonical JSON of the bytes' SHA-256, the xacro arguments and the entry."""
+    key = canonical_json({"sha256": hashlib.sha256(data).hexdigest(), "args": args or {}, "entry": entry})
+    return UPLOAD_PREFIXES[kind] + hashlib.sha256(key).hexdigest()[:ID_HASH_DIGITS]
+
+
+def _shown_upload(upload: dict[str, Any] | None) -> dict[str, Any] | None:
+    """What the model info shows of how a model was sent."""
+    if upload is None:
+        return None
+    return {"container": upload.get("container"), "entry": upload.get("entry"), "args": upload.get("args") or {}}
+
+
 def canonical_json(obj: Any) -> bytes:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode()
 
@@ -111,6 +173,12 @@ def canonical_json(obj: Any) -> bytes:
 def dh_id(canonical: bytes) -> str:
     """Id of a DH-built model: ``dh-`` + the first 16 hex digits of SHA-256 of the canonical table JSON."""
     return DH_PREFIX + hashlib.sha256(canonical).hexdigest()[:ID_HASH_DIGITS]
+
+
+def description_id(kind: str, canonical: bytes) -> str:
+    """Id of a model built from a description: its prefix (``dh-``, ``poe-``, ``axes-``) + the first
+    16 hex digits of SHA-256 of the canonical JSON."""
+    return DESCRIPTIONS[kind].prefix + hashlib.sha256(canonical).hexdigest()[:ID_HASH_DIGITS]
 
 
 def _now() -> str:
@@ -194,7 +262,7 @@ class Registry:
                 with self._lock:
                     self._bundled[model_id] = rec
             return rec
-        if not (_UPLOAD_ID.match(model_id) or _DH_ID.match(model_id)):
+        if not _is_stored_id(model_id):
             raise UnknownModelError(f"unknown model {model_id!r}")
         try:
             return self._load_stored(model_id)
@@ -234,15 +302,40 @@ class Registry:
         model = parse_urdf(data, max_links=self.max_links)
         return self._register(urdf_id(data), model, data, name, SOURCE_UPLOAD)
 
+    def add_upload(self, data: bytes, name: str | None = None, *, args: dict[str, Any] | None = None,
+                   entry: str | None = None, expect: str | None = None, **limits: Any) -> tuple[ModelRecord, bool]:
+        """Register any description -- URDF, xacro, MJCF, or a zip/gzip/tar archive -- told apart by
+        content; ``(record, created)``. A plain URDF is stored as :meth:`add_urdf` stores it; the
+        others as the URDF they became. ``limits``: ``xacro_limits``, ``archive_limits``."""
+        loaded = load_description(data, args=args, entry=entry, max_links=self.max_links, expect=expect, **limits)
+        if loaded.format == "urdf" and loaded.container is None:
+            return self._register(urdf_id(data), loaded.model, data, name, SOURCE_UPLOAD)
+        kind = "archive" if loaded.container else loaded.format
+        model_id = upload_id(kind, data, dict(loaded.args or {}), loaded.entry)
+        model = loaded.model
+        urdf = model.urdf.encode("utf-8")
+        upload = {"format": loaded.format, "container": loaded.container, "entry": loaded.entry,
+                  "args": dict(loaded.args or {}), "warnings": list(model.warnings),
+                  "urdf_sha256": hashlib.sha256(urdf).hexdigest(), "source_sha256": hashlib.sha256(data).hexdigest()}
+        return self._register(model_id, model, urdf, name, SOURCE_UPLOAD, upload=upload)
+
     def add_dh(self, table_dict: dict[str, Any], name: str | None = None) -> tuple[ModelRecord, bool]:
         """Register a model built from a DH table (the JSON of ``POST /models/dh``); ``(record, created)``."""
-        table = dh.table_from_dict(table_dict)
-        canonical = canonical_json(dh.table_to_dict(table, angles=DH_CANONICAL_ANGLES))
-        model = dh.model_from_table(table, max_links=self.max_links)
-        return self._register(dh_id(canonical), model, canonical, name, SOURCE_DH, json.loads(canonical))
+        return self.add_description("dh", table_dict, name)
+
+    def add_description(self, kind: str, description: dict[str, Any], name: str | None = None
+                        ) -> tuple[ModelRecord, bool]:
+        """Register a model built from a description of ``kind`` (``dh``, ``poe``, ``axes``: the JSON of
+        ``POST /models/<kind>``), stored as its canonical JSON; ``(record, created)``."""
+        model, canonical_dict = api.model_from_description(kind, description, max_links=self.max_links)
+        canonical = canonical_json(canonical_dict)
+        stored = json.loads(canonical)
+        return self._register(description_id(kind, canonical), model, canonical, name, kind,
+                              stored if kind == "dh" else None, stored if kind != "dh" else None)
 
     def _register(self, model_id: str, model: RobotModel, content: bytes, name: str | None, source: str,
-                  table: dict[str, Any] | None = None) -> tuple[ModelRecord, bool]:
+                  table: dict[str, Any] | None = None, description: dict[str, Any] | None = None,
+                  upload: dict[str, Any] | None = None) -> tuple[ModelRecord, bool]:
         """``(record, created)``: the model already stored under ``model_id``, or ``model`` stored now.
 
         A new record is built from the model the caller parsed, not read and parsed again from disk.
@@ -252,9 +345,12 @@ class Registry:
         except UnknownModelError:
             pass
         meta = {"id": model_id, "name": name or model.name, "source": source, "created": _now()}
+        if upload is not None:
+            meta["upload"] = upload
         self._store(model_id, meta, content)
         key = _file_key(os.stat(self._content_path(model_id)))
-        rec = ModelRecord(model_id, meta["name"], source, model, meta["created"], table, key)
+        rec = ModelRecord(model_id, meta["name"], source, model, meta["created"], table, key, description,
+                          _shown_upload(upload))
         with self._lock:
             self._stored[model_id] = rec
         return rec, True
@@ -273,7 +369,7 @@ class Registry:
     def delete(self, model_id: str) -> None:
         """Remove a stored model (content file first, then its sidecar). Bundled ids are refused by the caller."""
         check_model_id(model_id)
-        if not (_UPLOAD_ID.match(model_id) or _DH_ID.match(model_id)):
+        if not _is_stored_id(model_id):
             raise UnknownModelError(f"unknown model {model_id!r}")
         with self._lock:
             self._stored.pop(model_id, None)
@@ -288,7 +384,8 @@ class Registry:
 
     # ------------------------------------------------------------------ files
     def _content_path(self, model_id: str) -> Path:
-        suffix = URDF_SUFFIX if model_id.startswith(UPLOAD_PREFIX) else DH_SUFFIX
+        kind = _description_of(model_id)
+        suffix = URDF_SUFFIX if kind is None else kind.suffix
         return self.models_dir / f"{model_id}{suffix}"
 
     def _meta_path(self, model_id: str) -> Path:
@@ -301,9 +398,12 @@ class Registry:
         except FileNotFoundError:
             return []
         for fname in sorted(names):
-            for suffix, pattern in ((URDF_SUFFIX, _UPLOAD_ID), (DH_SUFFIX, _DH_ID)):
-                if fname.endswith(suffix) and pattern.match(fname[: -len(suffix)]):
-                    ids.append(fname[: -len(suffix)])
+            if fname.endswith(URDF_SUFFIX) and (_UPLOAD_ID.match(fname[: -len(URDF_SUFFIX)])
+                                                or _CONVERTED_ID.match(fname[: -len(URDF_SUFFIX)])):
+                ids.append(fname[: -len(URDF_SUFFIX)])
+            for kind in DESCRIPTIONS.values():
+                if fname.endswith(kind.suffix) and kind.matches(fname[: -len(kind.suffix)]):
+                    ids.append(fname[: -len(kind.suffix)])
         return ids
 
     def _load_stored(self, model_id: str) -> ModelRecord:
@@ -331,8 +431,22 @@ class Registry:
         data = path.read_bytes()
         meta = self._read_meta(model_id)
         created = meta.get("created") or datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")
-        table = None
-        if model_id.startswith(UPLOAD_PREFIX):
+        table = description = upload = None
+        if _CONVERTED_ID.match(model_id):
+            upload = meta.get("upload")
+            if not isinstance(upload, dict) or not isinstance(upload.get("urdf_sha256"), str):
+                raise ValueError(f"{path.name}: its sidecar (format, arguments, URDF hash) is missing or unreadable")
+            if hashlib.sha256(data).hexdigest() != upload["urdf_sha256"]:
+                raise ValueError(f"{path.name}: content does not hash to its sidecar's urdf_sha256 (corrupt or foreign file)")
+            try:
+                model = parse_urdf(data, max_links=self.max_links)
+            except KinematicsError as exc:
+                raise ValueError(f"{path.name}: {exc}") from None
+            warnings = upload.get("warnings")
+            model = replace(model, format=str(upload.get("format") or "urdf"),
+                            warnings=tuple(str(w) for w in warnings) if isinstance(warnings, list) else model.warnings)
+            source = SOURCE_UPLOAD
+        elif model_id.startswith(UPLOAD_PREFIX):
             if urdf_id(data) != model_id:
                 raise ValueError(f"{path.name}: content does not hash to its id (corrupt or foreign file)")
             try:
@@ -341,19 +455,23 @@ class Registry:
                 raise ValueError(f"{path.name}: {exc}") from None
             source = SOURCE_UPLOAD
         else:
+            kind = _description_of(model_id)
             try:
-                table = json.loads(data)
-                if not isinstance(table, dict):
+                stored = json.loads(data)
+                if not isinstance(stored, dict):
                     raise ValueError("not a JSON object")
-                parsed = dh.table_from_dict(table)
-                if dh_id(canonical_json(dh.table_to_dict(parsed, angles=DH_CANONICAL_ANGLES))) != model_id:
+                model, canonical = api.model_from_description(kind.kind, stored, max_links=self.max_links)
+                if description_id(kind.kind, canonical_json(canonical)) != model_id:
                     raise ValueError("content does not hash to its id (corrupt or foreign file)")
-                model = dh.model_from_table(parsed, max_links=self.max_links)
             except (ValueError, KinematicsError) as exc:
                 raise ValueError(f"{path.name}: {exc}") from None
-            source = SOURCE_DH
+            source = kind.kind
+            if kind.kind == "dh":
+                table = stored
+            else:
+                description = stored
         name = meta.get("name") if isinstance(meta.get("name"), str) else model.name
-        rec = ModelRecord(model_id, name, source, model, created, table, key)
+        rec = ModelRecord(model_id, name, source, model, created, table, key, description, _shown_upload(upload))
         with self._lock:
             self._stored[model_id] = rec
         return rec

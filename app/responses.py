@@ -80,7 +80,8 @@ class NpzResponse(Response):
 
     def __init__(self, arrays: dict[str, np.ndarray], headers: dict[str, str] | None = None, status_code: int = 200):
         buf = io.BytesIO()
-        np.savez(buf, **{name: np.ascontiguousarray(a) for name, a in arrays.items()})
+        # (np.ascontiguousarray would turn a scalar into shape (1,): scalars stay 0-d)
+        np.savez(buf, **{name: np.ascontiguousarray(a) if np.ndim(a) else np.asarray(a) for name, a in arrays.items()})
         super().__init__(buf.getvalue(), status_code=status_code, headers=headers)
 
 

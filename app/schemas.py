@@ -89,14 +89,24 @@ class ModelInfo(BaseModel):
     created: str | None = Field(default=None, description="creation time (stored models)")
     dh_table: dict[str, Any] | None = Field(
         default=None, description="the DH table a DH-built model or DH preset was built from (else null)")
+    description: dict[str, Any] | None = Field(
+        default=None, description="the product-of-exponentials or zero-configuration axes description a model "
+                                  "was built from, in canonical form (else null)")
+    format: str = Field(default="urdf", description="what the description was written in: urdf, xacro (expanded), "
+                                                   "mjcf (converted), dh, ...; `GET /models/{id}/urdf` is always URDF")
+    upload: dict[str, Any] | None = Field(
+        default=None, description="how a model read from xacro, MJCF or an archive was sent: `container` (zip, "
+                                  "gzip, tar or null), `entry` (the file of the archive), `args` (xacro arguments)")
 
 
 class URDFUpload(BaseModel):
     """JSON form of ``POST /models`` (the raw XML body is the other form)."""
 
     model_config = ConfigDict(extra="forbid")
-    urdf: str = Field(description="the URDF document")
+    urdf: str = Field(description="the URDF document (or xacro or MJCF text: told apart by content)")
     name: str | None = Field(default=None, max_length=200, description="display name (default: the robot's name)")
+    args: dict[str, str | int | float | bool] | None = Field(
+        default=None, description="xacro arguments (`<xacro:arg>`), for xacro text")
 
 
 class DHJoint(BaseModel):
@@ -125,6 +135,50 @@ class DHTable(BaseModel):
         default=None, description="T_world_frame0: 4x4, or {xyz, rpy}; default identity")
     tool: Matrix | dict[str, Vector] | None = Field(
         default=None, description="T_frameN_tool: 4x4, or {xyz, rpy}; default identity")
+
+
+class PoEJointIn(BaseModel):
+    """One joint of a product-of-exponentials description (``kinematics.io.poe_model`` validates it)."""
+
+    model_config = ConfigDict(extra="allow")
+    S: Vector | None = Field(default=None, description="space screw (w, v), angular first; or give B")
+    B: Vector | None = Field(default=None, description="body screw (w, v) in the end-effector frame at q = 0")
+    type: str | None = Field(default=None, description="revolute | continuous | prismatic (default: from the screw)")
+    name: str | None = Field(default=None, description="joint name (default joint_<i>)")
+    limits: list[float] | dict[str, float] | None = Field(default=None, description="[lower, upper]")
+
+
+class PoEDescriptionIn(BaseModel):
+    """A product-of-exponentials description: ``T(q) = exp([S_1] q_1) ... exp([S_n] q_n) M``
+    (or ``M exp([B_1] q_1) ... exp([B_n] q_n)``)."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str | None = None
+    angles: Literal["radians", "degrees"] = "radians"
+    M: Matrix | dict[str, Vector] = Field(description="end-effector pose at q = 0: 4x4, or {xyz, rpy}")
+    joints: list[PoEJointIn]
+
+
+class AxesJointIn(BaseModel):
+    """One joint of a zero-configuration axes description (``kinematics.io.axes_model`` validates it)."""
+
+    model_config = ConfigDict(extra="allow")
+    type: str = Field(description="revolute | continuous | prismatic (or R, P)")
+    h: Vector = Field(description="unit axis h_i, base coordinates (zero configuration)")
+    p: Vector | None = Field(default=None, description="link vector p_{i-1,i} (prismatic: at q = 0); default 0")
+    name: str | None = None
+    limits: list[float] | dict[str, float] | None = None
+
+
+class AxesDescriptionIn(BaseModel):
+    """Zero-configuration axes (Wen): ``p_0T = p_01 + R_01 p_12 + ... + R_0n p_nT``, ``R_{i-1,i} = rot(h_i, q_i)``."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str | None = None
+    angles: Literal["radians", "degrees"] = "radians"
+    joints: list[AxesJointIn]
+    p_nT: Vector | None = Field(default=None, description="tool offset in frame n (default 0)")
+    R_nT: Matrix | dict[str, Vector] | None = Field(default=None, description="tool orientation: 3x3 or {rpy}")
 
 
 class PoEJoint(BaseModel):
@@ -204,6 +258,15 @@ _BASE_DESC = ("the root link's pose in the world, T_world_root (default: the wor
               "one pose per configuration. verify compares the root-frame results with Pinocchio.")
 
 
+Point = Annotated[list[Number], Field(min_length=3, max_length=3)]
+_POINT_DESC = ("a point [x, y, z] in the link frame, metres: the answer is then that of a frame there with the "
+               "link's axes (a tool centre point without editing the URDF); not with tool")
+_TOOL_DESC = ("T_link_tool, a tool frame fixed to the link: {\"xyz\", \"rpy\"}, {\"position\", \"quaternion\"} or a 4x4 "
+              "matrix. Poses become T_world_link @ T_link_tool; Jacobians and velocities are those of that frame "
+              "(Pinocchio's frame semantics: local_world_aligned and world rows take its origin as reference point, "
+              "local also turns into its axes); IK targets are its poses. Not with point")
+
+
 class FKRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     q: JointValues = Field(description=_Q_DESC)
@@ -212,6 +275,8 @@ class FKRequest(BaseModel):
     verify: bool = Field(default=False, description="also compare with Pinocchio and report the largest deviations")
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
+    point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
+    tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
     format: PoseFormat = Field(
         default="pose",
         description="pose: matrix, position, quaternion, rpy per link; matrix: the 4x4 only; "
@@ -240,6 +305,8 @@ class JacobianRequest(BaseModel):
     verify: bool = False
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
+    point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
+    tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
 
 
 class JacobianResponse(BaseModel):
@@ -281,6 +348,8 @@ class IKRequest(BaseModel):
                           description="attempts from random configurations within the limits after the first")
     random_seed: int = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
+    point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
+    tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
     verify: bool = Field(default=False, description="also Pinocchio's FK of every answer, against its target")
 
 
@@ -302,6 +371,207 @@ class IKResponse(BaseModel):
     rotation_error: Union[float, list[float]] = Field(description="radians, measured on the answer")
     iterations: Union[int, list[int]] = Field(description="steps taken, over every attempt")
     verification: IKVerification | None = None
+
+
+class VelocityRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    q: JointValues = Field(description=_Q_DESC)
+    qdot: JointValues = Field(description="joint velocities (rad/s, m/s), in the same form as q: one vector or map "
+                                          "per configuration; a mimic joint moves with multiplier * its leader's")
+    links: Union[Literal["all"], list[str], None] = Field(default=None, description='link names; default (or "all"): every link')
+    verify: bool = Field(default=False, description="also compare every twist with Pinocchio's getFrameVelocity")
+    limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+    base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC + " The base is at rest.")
+    point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
+    tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
+
+
+class Twists(BaseModel):
+    world: Vector = Field(description="twist of the body at the world origin, world axes (linear first)")
+    local: Vector = Field(description="velocity of the link origin and angular velocity in the link's axes")
+    local_world_aligned: Vector = Field(description="velocity of the link origin and angular velocity, world axes")
+
+
+class LinkVelocity(BaseModel):
+    linear: Vector = Field(description="velocity of the link origin (or of the point / tool origin), world axes, m/s")
+    angular: Vector = Field(description="angular velocity of the link, world axes, rad/s")
+    twist: Twists
+
+
+class VelocityVerification(BaseModel):
+    reference: str = Field(examples=["pinocchio 4.1.0"])
+    max_velocity_error: float = Field(description="largest entry-wise difference of the twists (three references)")
+
+
+class VelocityResponse(BaseModel):
+    model: str
+    joint_names: list[str]
+    links: list[str] = Field(description="the links returned, in order")
+    velocities: Union[dict[str, LinkVelocity], list[dict[str, LinkVelocity]]] = Field(
+        description="per link; for a batch, a list with one map per configuration")
+    out_of_limits: Union[list[str], list[list[str]]]
+    verification: VelocityVerification | None = None
+
+
+VELOCITY_EXAMPLES = {
+    "ur5_tool": {"summary": "UR5 tool0 turning the shoulder, verified",
+                 "value": {"q": UR5_HOME, "qdot": [0.5, 0, 0, 0, 0, 0], "links": ["tool0"], "verify": True}},
+    "ur5_tcp_batch": {"summary": "a TCP 10 cm along tool0's z, a batch of two",
+                      "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "qdot": [[0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0]],
+                                "links": ["tool0"], "point": [0, 0, 0.1]}},
+}
+
+
+# ---------------------------------------------------------------------- closed forms and task vectors
+SymbolicWhat = Literal["transforms", "jacobian", "task"]
+SymbolicFormat = Literal["latex", "python", "c", "text"]
+TaskRepresentationName = Literal["rpy", "zyx", "zyz", "quaternion", "rotvec", "position", "scara", "planar"]
+_REPRESENTATION_DESC = ("task vector r = (p, phi): rpy | zyx | zyz | quaternion | rotvec, or a named subset: "
+                        "position (px, py, pz), scara (px, py, pz, alpha_z), planar (px, py, phi)")
+
+
+class _SymbolicOptions(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    what: list[SymbolicWhat] = Field(default_factory=lambda: ["transforms"], min_length=1,
+                                     description="transforms: A_i and T; jacobian: local_world_aligned and world "
+                                                 "(6 x n, linear rows first); task: r(q) and J_r = dr/dq")
+    format: SymbolicFormat = Field(default="latex", description="latex (compact c_12, s_1 notation), text "
+                                   "(strings sympy.sympify reads), python (numpy module), c (C99 functions)")
+    simplify: bool = Field(default=True, description="combine and collect terms (false: the expanded forms, fastest)")
+    representation: TaskRepresentationName | None = Field(
+        default=None, description=_REPRESENTATION_DESC + " (symbolic: rpy, zyx, zyz and the subsets); default rpy")
+    components: list[str] | None = Field(default=None, description="keep these components of the task vector")
+    variables: Literal["q", "names"] = Field(default="q", description="joint variables q1..qn, or the joint names")
+    prefix: str = Field(default="", max_length=64, description="prefix of the C function names")
+    timeout: float | None = Field(default=None, gt=0, description="seconds (at most the service's limit)")
+
+
+class SymbolicRequest(_SymbolicOptions):
+    tip: str | None = Field(default=None, description="the link ending the chain (default: the only leaf link)")
+
+
+class SymbolicDHRequest(_SymbolicOptions):
+    table: dict[str, Any] = Field(description="a DH table (the shape of POST /models/dh) whose a, alpha, d, theta "
+                                              "may be parameter names or expressions: \"a1\", \"-d4\", \"pi/2\"")
+
+
+class JointVariable(BaseModel):
+    symbol: str = Field(description="the symbol (q1, ...)")
+    joint: str = Field(description="the joint it is")
+
+
+class CodeFunction(BaseModel):
+    name: str
+    signature: str
+    returns: str
+
+
+SymbolicMatrix = Union[str, list[list[str]]]
+
+
+class SymbolicResponse(BaseModel):
+    model: str | None = Field(default=None, description="the model id (null for POST /symbolic/dh)")
+    root: str
+    tip: str
+    format: SymbolicFormat
+    simplified: bool
+    seconds: float = Field(description="time the derivation took")
+    joint_variables: list[JointVariable] = Field(description="the order of q")
+    parameters: list[str] = Field(description="symbols other than the joint variables (the order of p in C)")
+    frames: list[str] = Field(description="the links (DH: frames) that the factors A_i end at")
+    T: SymbolicMatrix | None = Field(default=None, description="T_world_tip = base A_1 ... A_n tool (latex: a "
+                                     "bmatrix; text: rows of strings)")
+    A: list[SymbolicMatrix] | None = Field(default=None, description="the factors A_i")
+    base: SymbolicMatrix | None = None
+    tool: SymbolicMatrix | None = None
+    jacobian: dict[str, SymbolicMatrix] | None = Field(default=None, description="per reference, 6 x n")
+    representation: str | None = None
+    components: list[str] | None = None
+    r: SymbolicMatrix | None = Field(default=None, description="the task vector (a column)")
+    J_r: SymbolicMatrix | None = Field(default=None, description="dr/dq")
+    code: str | None = Field(default=None, description="python / c: the generated source")
+    functions: list[CodeFunction] | None = None
+
+
+class TaskRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    q: JointValues = Field(description=_Q_DESC)
+    link: str | None = Field(default=None, description="default: the first leaf link")
+    representation: TaskRepresentationName = Field(default="rpy", description=_REPRESENTATION_DESC)
+    components: list[str] | None = Field(default=None, description="keep these components (default all)")
+    limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
+    base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
+
+
+class TaskResponse(BaseModel):
+    model: str
+    link: str
+    representation: str
+    components: list[str]
+    joint_names: list[str] = Field(description="the order of the columns of J_r")
+    r: Union[Vector, list[Vector]] = Field(description="the task vector (batch: one per configuration)")
+    J_r: Union[Matrix, list[Matrix]] = Field(description="m x dof analytic Jacobian dr/dq = blockdiag(I, E^-1) J")
+    out_of_limits: Union[list[str], list[list[str]]]
+
+
+class WorkspaceRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    link: str | None = Field(default=None, description="the link (default: the first leaf link)")
+    point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
+    tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
+    samples: int = Field(default=100_000, ge=1, description="configurations drawn uniformly within the joint limits "
+                                                             "(bounded by the max_workspace_samples setting)")
+    random_seed: int = Field(default=0, ge=0, le=2**63 - 1, description="seed of the draws: same inputs, same answer")
+    voxel: float | None = Field(default=None, gt=0, description="edge of the occupancy-grid cells, metres (default: "
+                                                                "chosen so that the bounding box has about samples/16 cells)")
+    measure: Literal["pose", "position"] = Field(
+        default="pose", description="manipulability: product of the singular values of the 6 x k local_world_aligned "
+                                    "Jacobian over the k joints on the path (pose) or of its 3 position rows (position)")
+
+
+class BoundingBox(BaseModel):
+    min: Vector
+    max: Vector
+
+
+class ConvergenceStep(BaseModel):
+    samples: int
+    volume: float | None = Field(default=None, description="m³ (spatial workspaces)")
+    area: float | None = Field(default=None, description="m² (planar workspaces)")
+
+
+class ManipulabilityStats(BaseModel):
+    min: float
+    mean: float
+    max: float
+
+
+class WorkspaceResponse(BaseModel):
+    model: str
+    link: str
+    samples: int
+    random_seed: int
+    measure: Literal["pose", "position"]
+    dimension: int = Field(description="3: the samples fill space; 2: they lie in a plane (a planar arm); 1, 0")
+    bounding_box: BoundingBox
+    reach: float = Field(description="largest distance of a sample from the root frame's origin, metres")
+    volume: float = Field(description="occupancy-grid estimate, m³ (0 for a planar workspace)")
+    area: float | None = Field(default=None, description="planar workspaces: the area, m²")
+    convergence: list[ConvergenceStep] = Field(description="the estimate over the first N/4, N/2 and N samples")
+    voxel: float = Field(description="the cell edge asked for or chosen, metres")
+    cell: Vector = Field(description="the grid's cell edges along its axes (each <= voxel, so whole cells tile the "
+                                     "bounding box; 0 along a flat axis)")
+    occupied_voxels: int = Field(description="cells holding a sample (the dexterity map's size; its cells and best "
+                                             "manipulability come with Accept: application/x-npz)")
+    manipulability: ManipulabilityStats
+
+
+WORKSPACE_EXAMPLES = {
+    "ur5": {"summary": "UR5 tool0, 100,000 samples", "value": {"link": "tool0", "samples": 100000}},
+    "ur5_tcp": {"summary": "a TCP 10 cm along tool0's z, position manipulability, 5 cm cells",
+                "value": {"link": "tool0", "point": [0, 0, 0.1], "samples": 200000, "voxel": 0.05,
+                          "measure": "position", "random_seed": 7}},
+}
 
 
 class Problem(BaseModel):
@@ -358,6 +628,28 @@ DH_EXAMPLE_TABLE = {
     "tool": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1]],
 }
 DH_EXAMPLES = {"rrp_standard": {"summary": "an RRP arm, standard DH, degrees", "value": DH_EXAMPLE_TABLE}}
+POE_EXAMPLES = {"mr_3r_spatial": {"summary": "the 3R spatial chain of Modern Robotics (L1 = 0.6, L2 = 0.4)", "value": {
+    "name": "mr_3r_spatial", "M": [[0, 0, 1, 0.6], [0, 1, 0, 0], [-1, 0, 0, -0.4], [0, 0, 0, 1]],
+    "joints": [{"S": [0, 0, 1, 0, 0, 0]}, {"S": [0, -1, 0, 0, 0, -0.6]}, {"S": [1, 0, 0, 0, -0.4, 0]}]}}}
+AXES_EXAMPLES = {"wen_scara": {"summary": "Wen's SCARA (RRRP; l1 = 0.4, l2 = 0.3, l3 = 0.1)", "value": {
+    "name": "wen_scara", "joints": [{"type": "R", "h": [0, 0, 1], "p": [0, 0, 0]},
+                                    {"type": "R", "h": [0, 0, 1], "p": [0, 0.4, 0]},
+                                    {"type": "R", "h": [0, 0, 1], "p": [0, 0.3, 0]},
+                                    {"type": "P", "h": [0, 0, 1], "p": [0, 0, 0.1]}], "p_nT": [0, 0, 0]}}}
+SYMBOLIC_EXAMPLES = {
+    "latex_transforms": {"summary": "UR5: T and the factors A_i in LaTeX",
+                         "value": {"tip": "tool0", "what": ["transforms"]}},
+    "task_text": {"summary": "UR5: the task vector (px, py, pz) and dr/dq as text",
+                  "value": {"tip": "tool0", "what": ["task"], "representation": "position", "format": "text"}},
+    "c_code": {"summary": "UR5: C functions of T and the Jacobians",
+               "value": {"tip": "tool0", "what": ["transforms", "jacobian"], "format": "c", "prefix": "ur5_"}},
+}
+SYMBOLIC_DH_EXAMPLES = {"scara_symbolic": {"summary": "the SCARA of the notes, symbolic lengths (d4 < 0)", "value": {
+    "what": ["transforms", "task"], "representation": "scara", "table": {"joints": [
+        {"type": "R", "a": "a1", "alpha": 0, "d": "d1", "theta": 0},
+        {"type": "R", "a": "a2", "alpha": 0, "d": 0, "theta": 0},
+        {"type": "P", "a": 0, "alpha": 0, "d": 0, "theta": 0},
+        {"type": "R", "a": 0, "alpha": "pi", "d": "d4", "theta": 0}]}}}}
 TWO_LINK_URDF = """<robot name="two_link">
   <link name="base"/><link name="upper"/><link name="tool"/>
   <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
@@ -378,4 +670,6 @@ IK_EXAMPLES = {
                                             {"xyz": [0.3, -0.3, 0.5], "rpy": [0, 0, 0]}]}},
 }
 
-REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, URDFUpload, DHTable, Problem)
+REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, VelocityRequest,
+                                                WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
+                                                AxesDescriptionIn, Problem)

@@ -13,6 +13,16 @@ variable                   default                     meaning
 ``KIN_MAX_LINKS``          10,000                      links (and joints) in one model
 ``KIN_MAX_VERIFY``         10,000                      configurations one ``verify`` may check
 ``KIN_MAX_RESULT_VALUES``  32,000,000                  numbers in one FK / Jacobian answer
+``KIN_MAX_WORKSPACE_SAMPLES`` 1,000,000                configurations one workspace request
+                                                       may sample
+``KIN_SYMBOLIC_TIMEOUT``   30                          seconds one closed-form request may take
+``KIN_MAX_ARCHIVE_BYTES``  64 MiB                      a description archive body (zip, gzip, tar)
+``KIN_MAX_ARCHIVE_EXTRACTED_BYTES`` 64 MiB             description files extracted from one
+                                                       archive (meshes are never extracted)
+``KIN_MAX_ARCHIVE_MEMBERS`` 20,000                     members of one archive
+``KIN_XACRO_CPU_SECONDS``  10                          CPU time of one sandboxed xacro expansion
+``KIN_XACRO_MEMORY_BYTES`` 1 GiB                       address space of that process
+``KIN_XACRO_MAX_MACRO_CALLS`` 20,000                   macro calls in one expansion
 ``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
 ``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
 ``KIN_API_KEY``            (unset)                     when set, writes need it
@@ -49,6 +59,21 @@ class Settings(BaseSettings):
                              description="most IK steps one request may take: targets x (restarts + 1) x max_iterations")
     max_result_values: int = Field(default=32_000_000, gt=0,
                                    description="most numbers in one FK / Jacobian answer (N x links x 16, N x 6 x dof)")
+    max_workspace_samples: int = Field(default=1_000_000, gt=0,
+                                       description="most configurations one workspace request may sample")
+    symbolic_timeout: float = Field(default=30.0, gt=0, le=3600,
+                                    description="most seconds one closed-form (symbolic) request may take; its "
+                                                "derivation runs in a worker process that is stopped then")
+    max_archive_bytes: int = Field(default=64 * MIB, gt=0,
+                                   description="largest description archive body (zip, gzip, tar), bytes")
+    max_archive_extracted_bytes: int = Field(default=64 * MIB, gt=0,
+                                             description="most bytes of description files extracted from one archive")
+    max_archive_members: int = Field(default=20_000, gt=0, description="most members in one description archive")
+    xacro_cpu_seconds: float = Field(default=10.0, gt=0, le=600,
+                                     description="CPU time of one xacro expansion (its sandboxed process's RLIMIT_CPU)")
+    xacro_memory_bytes: int = Field(default=1024 * MIB, ge=128 * MIB,
+                                    description="address space of one xacro expansion process (RLIMIT_AS)")
+    xacro_max_macro_calls: int = Field(default=20_000, gt=0, description="most macro calls in one xacro expansion")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     log_level: str = "info"
     api_key: SecretStr | None = None

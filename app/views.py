@@ -31,4 +31,15 @@ def model_info(rec: ModelRecord) -> dict:
         "joint_names": list(m.joint_names), "links": list(m.links), "leaf_links": list(m.leaf_links),
         "joints": [joint_info(j) for j in m.joints], "warnings": list(m.warnings),
         "urdf_sha256": m.content_hash, "created": rec.created, "dh_table": rec.dh_table,
+        "description": rec.description, "format": _format(rec), "upload": rec.upload,
     }
+
+
+def _format(rec: ModelRecord) -> str:
+    """What the model was written in: the model's own format (urdf, xacro, mjcf), or the table or
+    description it was built from (dh, poe, axes)."""
+    if rec.dh_table is not None:
+        return "dh"
+    if rec.description is not None:
+        return rec.source
+    return rec.model.format

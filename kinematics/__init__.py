@@ -19,7 +19,9 @@ Typical use::
 """
 
 from .api import Budget, FKAnswer, JacobianAnswer, Verification, fk, jacobian, joint_batch, load_model, warm_up
+from .engine.parallel import set_threads, thread_count, threads
 from .engine.poe import PoEModel, compile_model
+from .engine.single import fk_function, jacobian_function
 from .errors import (
     BasePoseError,
     BudgetError,
@@ -44,7 +46,8 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Budget", "FKAnswer", "JacobianAnswer", "Verification", "fk", "jacobian", "joint_batch", "load_model", "warm_up",
-    "PoEModel", "compile_model", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
+    "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
+    "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
     "UnsupportedJointError", "URDFError", "Catalogue", "default_catalogue", "load_urdf", "parse_urdf", "as_batch",
     "out_of_limits", "require_within_limits", "Joint", "Limits", "Mimic", "RobotModel", "REFERENCES", "Reference",

@@ -30,11 +30,13 @@ from .algorithms.ik import IKSolution, inverse_kinematics, pose_errors
 from .algorithms import ik as _ik
 from .algorithms.jacobian import jacobian as _jacobian
 from .algorithms.measures import conditioning
+from .algorithms.velocity import twists_in_world, velocities as _velocities
+from .algorithms import workspace as _workspace
 from .engine.poe import compile_model
 from .errors import BudgetError, JointValueError, KinematicsError
 from .io.catalogue import default_catalogue
 from .io.dh_table import load_table, model_from_table
-from .io.poses import base_poses, pose_list
+from .io.poses import base_poses, pose_list, tool_offset
 from .io.urdf import load_urdf, parse_urdf
 from .model.joint_values import as_batch, limit_violations, out_of_limits, require_within_limits
 from .model.robot import RobotModel
@@ -58,6 +60,13 @@ class Budget:
     max_verify: int | None = None
     max_result_values: int | None = None
     max_ik_work: int | None = None
+    max_workspace_samples: int | None = None
+
+    def check_workspace_samples(self, n: int) -> None:
+        if self.max_workspace_samples is not None and n > self.max_workspace_samples:
+            raise BudgetError(f"the workspace would take {n} samples; the limit (max_workspace_samples) is "
+                              f"{self.max_workspace_samples}", budget="workspace-samples", field="samples",
+                              limit=self.max_workspace_samples)
 
     def check_batch(self, n: int) -> None:
         if self.max_batch is not None and n > self.max_batch:
@@ -96,6 +105,7 @@ class Verification:
     max_position_error: float | None = None
     max_rotation_error: float | None = None
     max_jacobian_error: float | None = None
+    max_velocity_error: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if v is not None}
@@ -185,10 +195,13 @@ def _prepare(model: RobotModel, q: Any, limits: str, budget: Budget) -> tuple[np
 
 
 def fk(model: RobotModel, q: Any, *, links: Sequence[str] | str | None = None, base: Any = None,
-       verify: bool = False, limits: str = "report", budget: Budget = UNBOUNDED) -> FKAnswer:
+       point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
+       budget: Budget = UNBOUNDED) -> FKAnswer:
     """Poses ``T_world_link`` of ``links`` (None: the leaf links; ``"all"``; or names) for joint
     values ``q``; ``base`` is the root link's world pose (one, or one per configuration, in
-    any form :func:`~kinematics.io.poses.base_poses` reads). ``verify`` compares the poses
+    any form :func:`~kinematics.io.poses.base_poses` reads). ``point`` ([x, y, z] in the link
+    frame) or ``tool`` (a pose ``T_link_tool`` in any form) make the poses those of that frame,
+    ``T_world_link @ T_link_tool``, on every link returned. ``verify`` compares the poses
     (in the root frame) with Pinocchio's; ``limits="refuse"`` raises :class:`LimitError`."""
     Q, is_batch = _prepare(model, q, limits, budget)
     names = resolve_links(model, links)
@@ -197,22 +210,25 @@ def fk(model: RobotModel, q: Any, *, links: Sequence[str] | str | None = None, b
         budget.check_verify(N)
     budget.check_result(N * len(names) * 16, f"{N} configurations x {len(names)} links x 16")
     B = base_poses(base, N)
-    T = forward_kinematics(model, Q, names)
+    T_tool = tool_offset(point, tool)
+    T = forward_kinematics(model, Q, names, tool=T_tool)
     verification = None
     if verify:
         from .verify.pinocchio import compare_fk
 
-        dev = compare_fk(model, Q, names, poses=T)
+        dev = compare_fk(model, Q, names, poses=T, tool=T_tool)
         verification = Verification(dev.reference, max_position_error=dev.max_position_error,
                                     max_rotation_error=dev.max_rotation_error)
     return FKAnswer(model, Q, is_batch, names, poses_in_world(T, B), verification)
 
 
 def jacobian(model: RobotModel, q: Any, *, link: str | None = None, reference: str = Reference.WORLD,
-             base: Any = None, verify: bool = False, limits: str = "report",
+             base: Any = None, point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
              budget: Budget = UNBOUNDED) -> JacobianAnswer:
     """Jacobians (N, 6, dof) of ``link`` (None: the first leaf link) in ``reference``, for joint
-    values ``q``, re-expressed in the world of ``base``; ``verify`` and ``limits`` as :func:`fk`."""
+    values ``q``, re-expressed in the world of ``base``; ``point`` / ``tool``: the Jacobian of the
+    frame at that offset from the link (Pinocchio's frame semantics, see
+    :func:`kinematics.algorithms.jacobian.jacobian`); ``verify`` and ``limits`` as :func:`fk`."""
     Q, is_batch = _prepare(model, q, limits, budget)
     link = model.leaf_links[0] if link is None else link
     compile_model(model).link_indices([link])
@@ -221,15 +237,76 @@ def jacobian(model: RobotModel, q: Any, *, link: str | None = None, reference: s
         budget.check_verify(N)
     budget.check_result(N * 6 * model.dof, f"{N} configurations x 6 x {model.dof}")
     B = base_poses(base, N)
-    J = _jacobian(model, Q, link, reference)
+    T_tool = tool_offset(point, tool)
+    J = _jacobian(model, Q, link, reference, tool=T_tool)
     verification = None
     if verify:
         from .verify.pinocchio import REFERENCE_NAME, compare_jacobian
 
-        err = compare_jacobian(model, Q, link, references=(reference,), jacobians={reference: J})
+        err = compare_jacobian(model, Q, link, references=(reference,), jacobians={reference: J}, tool=T_tool)
         verification = Verification(REFERENCE_NAME, max_jacobian_error=err)
     return JacobianAnswer(model, Q, is_batch, link, Reference(reference), jacobian_in_world(J, B, reference),
                           verification)
+
+
+@dataclass(frozen=True, eq=False)
+class VelocityAnswer(_Answer):
+    """Velocities of ``links`` for N configurations: ``twists[reference]`` (N, L, 6), linear part
+    first; ``Qd`` (N, dof) the validated joint velocities."""
+
+    Qd: np.ndarray
+    links: list[str]
+    twists: dict[Reference, np.ndarray]
+    verification: Verification | None = None
+
+    @property
+    def linear(self) -> np.ndarray:
+        """(N, L, 3) velocity of each link origin (or tool frame origin), world axes."""
+        return self.twists[Reference.LOCAL_WORLD_ALIGNED][..., :3]
+
+    @property
+    def angular(self) -> np.ndarray:
+        """(N, L, 3) angular velocity of each link, world axes."""
+        return self.twists[Reference.LOCAL_WORLD_ALIGNED][..., 3:]
+
+
+def velocity(model: RobotModel, q: Any, qdot: Any, *, links: Sequence[str] | str | None = None, base: Any = None,
+             point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
+             budget: Budget = UNBOUNDED) -> VelocityAnswer:
+    """Velocities of ``links`` (None or ``"all"``: every link; or names) for joint values ``q`` and
+    joint velocities ``qdot`` (the same forms, one velocity vector per configuration), computed
+    in one pass down the tree (:mod:`kinematics.algorithms.velocity`): per link the velocity of
+    its origin and the angular velocity in world axes, and the twist in the three references.
+
+    ``base``: the root link's world pose (at rest), as :func:`fk`. ``point`` / ``tool``: the
+    velocity of the frame at that offset from each link (as Pinocchio has it for a frame added
+    there). ``verify`` compares every twist with Pinocchio's ``getFrameVelocity``.
+    """
+    Q, is_batch = _prepare(model, q, limits, budget)
+    try:
+        Qd, qd_batch = joint_batch(model, qdot, budget)
+    except JointValueError as exc:
+        raise JointValueError(f"qdot: {exc}") from None
+    N = Q.shape[0]
+    if Qd.shape[0] != N or qd_batch != is_batch:
+        raise JointValueError(f"qdot: {Qd.shape[0]} velocity vector(s) for {N} configuration(s) of q: give one per "
+                              "configuration, in the same form (a vector or a list of vectors)")
+    names = list(model.links) if links is None else resolve_links(model, links)
+    if verify:
+        budget.check_verify(N)
+    budget.check_result(N * len(names) * 18, f"{N} configurations x {len(names)} links x 3 twists x 6")
+    B = base_poses(base, N)
+    T_tool = tool_offset(point, tool)
+    V = _velocities(model, Q, Qd, names, tool=T_tool)
+    verification = None
+    if verify:
+        from .verify.pinocchio import REFERENCE_NAME, compare_velocity
+
+        err = compare_velocity(model, Q, Qd, names, twists=V, tool=T_tool)
+        verification = Verification(REFERENCE_NAME, max_velocity_error=err)
+    if B is not None:
+        V = {ref: twists_in_world(v, B, ref) for ref, v in V.items()}
+    return VelocityAnswer(model, Q, is_batch, Qd, names, V, verification)
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,9 +326,12 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
        position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
        rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
        max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
-       random_seed: int = 0, base: Any = None, verify: bool = False, budget: Budget = UNBOUNDED) -> IKAnswer:
+       random_seed: int = 0, base: Any = None, point: Any = None, tool: Any = None, verify: bool = False,
+       budget: Budget = UNBOUNDED) -> IKAnswer:
     """Joint values putting ``link`` (None: the first leaf link) at ``target``: one pose or a list
     (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array), ``T_world_link``.
+    With ``point`` ([x, y, z] in the link frame) or ``tool`` (a pose ``T_link_tool``) the targets
+    are poses of that frame, ``T_world_link @ T_link_tool`` (a TCP without editing the URDF).
 
     ``seed``: one q (vector or name map) for every target, or one per target; default the middle
     of the limits. ``base`` as for :func:`fk`. ``success`` holds only where the answer's FK is
@@ -277,29 +357,66 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
         seeds = S
     B = base_poses(base, N)
     B = None if B is None else np.ascontiguousarray(B)
+    T_tool = tool_offset(point, tool)
     solution = inverse_kinematics(model, link, T, seeds, base=B, mode=mode, position_tolerance=position_tolerance,
                                   rotation_tolerance=rotation_tolerance, max_iterations=max_iterations,
-                                  restarts=restarts, random_seed=random_seed)
+                                  restarts=restarts, random_seed=random_seed, tool=T_tool)
     verification = None
     if verify:
         from .verify.pinocchio import REFERENCE_NAME, reference_for
 
-        ref = reference_for(model)
-        theirs = np.array([ref.poses(q)[link] for q in solution.q]).reshape(N, 4, 4)
+        frames = reference_for(model).frames([link], T_tool)
+        theirs = np.array([frames.poses(q)[link] for q in solution.q]).reshape(N, 4, 4)
         T_root = T if B is None else np.matmul(inverse_transform(B), T)
         position, rotation = pose_errors(theirs, T_root)
         verification = {"reference": REFERENCE_NAME, "position_error": position, "rotation_error": rotation}
     return IKAnswer(model, link, mode, is_batch, T, solution, verification)
 
 
-def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str | None = None) -> RobotModel:
-    """The model of a catalogue id, a URDF file or a DH table file (exactly one of them)."""
-    if sum(x is not None for x in (model_id, urdf, dh)) != 1:
-        raise KinematicsError("name exactly one model: a catalogue id, a URDF file or a DH table file")
+def workspace(model: RobotModel, link: str | None = None, *, samples: int = _workspace.DEFAULT_SAMPLES,
+              point: Any = None, tool: Any = None, voxel: float | None = None, measure: str = "pose",
+              random_seed: int = 0, budget: Budget = UNBOUNDED, progress=None) -> _workspace.Workspace:
+    """The sampled workspace of ``link`` (None: the first leaf link), or of the frame ``point`` /
+    ``tool`` on it: ``samples`` configurations drawn uniformly within the limits (seeded by
+    ``random_seed``), their positions and manipulability (``measure``: ``pose``, the 6 x k
+    Jacobian, or ``position``, its 3 rows), the bounding box, reach, an occupancy-grid volume
+    (area for a planar arm) with its convergence and the dexterity map on cells of edge
+    ``voxel`` (None: chosen from the samples); see :mod:`kinematics.algorithms.workspace`.
+    ``samples`` is bounded by ``budget.max_workspace_samples``; ``progress(n)`` is called after
+    each chunk of n samples."""
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    samples = int(samples)
+    if samples < 1:
+        raise KinematicsError(f"samples: {samples}; give at least 1")
+    budget.check_workspace_samples(samples)
+    return _workspace.workspace(model, link, samples, tool=tool_offset(point, tool), measure=measure, voxel=voxel,
+                                random_seed=random_seed, progress=progress)
+
+
+def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str | None = None,
+               xacro: str | None = None, mjcf: str | None = None, args: dict[str, Any] | None = None,
+               package_paths: Sequence[str] = ()) -> RobotModel:
+    """The model of a catalogue id, a URDF file, a DH table file, a xacro file or an MJCF file
+    (exactly one of them). A xacro file is expanded in a sandboxed process that may read only
+    its directory and ``package_paths`` (whose packages ``$(find pkg)`` resolves), with the
+    xacro ``args``; meshes are never opened."""
+    if sum(x is not None for x in (model_id, urdf, dh, xacro, mjcf)) != 1:
+        raise KinematicsError("name exactly one model: a catalogue id, a URDF, DH table, xacro or MJCF file")
+    if (args or package_paths) and xacro is None:
+        raise KinematicsError("xacro arguments and package paths apply to a xacro file (--xacro) only")
     if model_id is not None:
         return default_catalogue().get(model_id)
     if urdf is not None:
         return load_urdf(urdf)
+    if xacro is not None:
+        from .io.xacro import load_xacro
+
+        return load_xacro(xacro, args=args, package_paths=package_paths)
+    if mjcf is not None:
+        from .io.mjcf import load_mjcf
+
+        return load_mjcf(mjcf)
     return model_from_table(load_table(dh))
 
 
@@ -312,13 +429,15 @@ _WARM_UP_URDF = """<robot name="warm_up">
 
 
 def warm_up() -> None:
-    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, IK, rotation
+    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, velocity, workspace, IK, rotation
     to quaternion; compiled on the first run on a machine, a few seconds, then read from
     numba's disk cache), so that a server's first request pays for neither."""
     model = parse_urdf(_WARM_UP_URDF)
     pose = fk(model, [0.5]).poses[0, 0]
     fk(model, [0.0]).components()
     jacobian(model, [0.0], link="arm")
+    velocity(model, [0.0], [0.0])
+    workspace(model, "arm", samples=8)
     ik(model, pose, link="arm")
 
 
@@ -339,3 +458,140 @@ def reference_name() -> str:
     from .verify.pinocchio import REFERENCE_NAME
 
     return REFERENCE_NAME
+
+
+# ---------------------------------------------------------------------- closed forms, task vectors, PoE and axes
+#: what a symbolic request may ask for, and its formats (kinematics.algorithms.symbolic)
+SYMBOLIC_WHAT = ("transforms", "jacobian", "task")
+SYMBOLIC_FORMATS = ("latex", "python", "c", "text")
+#: time limit of a symbolic request when the caller gives none (seconds)
+DEFAULT_SYMBOLIC_TIMEOUT = 60.0
+
+
+@dataclass(frozen=True, eq=False)
+class SymbolicAnswer:
+    """Closed forms: ``forms`` (:class:`~kinematics.algorithms.symbolic.ClosedForms`, sympy
+    matrices) and ``output`` (them rendered in the requested format, a JSON-ready dict)."""
+
+    forms: Any
+    output: dict[str, Any]
+
+    @property
+    def seconds(self) -> float:
+        return float(self.forms.seconds)
+
+
+def _task_layout(what: Sequence[str], representation: str | None, components: Sequence[str] | None):
+    if "task" not in what:
+        return None
+    from .algorithms.task import task_representation
+
+    return task_representation(representation or "rpy", components)
+
+
+def _derive(chain, what, fmt, simplify, representation, components, prefix, timeout) -> SymbolicAnswer:
+    from .algorithms import symbolic as _symbolic
+
+    what = tuple(what)
+    forms, output = _symbolic.derive(chain, what=what, simplify=simplify, fmt=fmt, prefix=prefix, timeout=timeout,
+                                     task=_task_layout(what, representation, components))
+    output["seconds"] = round(forms.seconds, 6)
+    return SymbolicAnswer(forms, output)
+
+
+def symbolic(model: RobotModel, *, tip: str | None = None, dh_table: dict | None = None,
+             what: Sequence[str] = ("transforms",), fmt: str = "latex", simplify: bool = True,
+             representation: str | None = None, components: Sequence[str] | None = None, variables: str = "q",
+             prefix: str = "", timeout: float | None = DEFAULT_SYMBOLIC_TIMEOUT) -> SymbolicAnswer:
+    """Closed forms of the chain from the model's root to ``tip`` (default: the only leaf link).
+
+    ``dh_table``: the table the model was built from (a DH preset or DH-built model); then, for
+    its tool (``tip`` None or ``"tool"``), the factors are the table's DH matrices. ``what``:
+    ``transforms``, ``jacobian``, ``task`` (``representation`` and ``components`` of
+    :mod:`kinematics.algorithms.task`); ``fmt``: ``latex``, ``python``, ``c``, ``text``;
+    ``variables``: ``q`` (q1..qn) or ``names`` (the joint names); ``timeout`` (seconds, None:
+    unbounded) bounds the whole derivation (:class:`~kinematics.errors.SymbolicTimeoutError`).
+    """
+    from .algorithms import symbolic as _symbolic
+    from .io.dh_table import table_from_dict
+
+    if dh_table is not None and tip in (None, "tool"):
+        chain = _symbolic.chain_from_table(table_from_dict(dh_table), variables=variables)
+    else:
+        chain = _symbolic.chain_from_model(model, tip=tip, variables=variables)
+    return _derive(chain, what, fmt, simplify, representation, components, prefix, timeout)
+
+
+def symbolic_dh(table: dict, *, what: Sequence[str] = ("transforms",), fmt: str = "latex", simplify: bool = True,
+                representation: str | None = None, components: Sequence[str] | None = None, variables: str = "q",
+                prefix: str = "", timeout: float | None = DEFAULT_SYMBOLIC_TIMEOUT) -> SymbolicAnswer:
+    """Closed forms of a DH table whose entries may be parameter names or expressions
+    (``{"a": "a1", "d": "-d4", "alpha": "pi/2"}``; :func:`~kinematics.algorithms.symbolic.symbolic_table_from_dict`);
+    options as :func:`symbolic`. No model is built."""
+    from .algorithms import symbolic as _symbolic
+
+    chain = _symbolic.chain_from_table(_symbolic.symbolic_table_from_dict(table), variables=variables)
+    return _derive(chain, what, fmt, simplify, representation, components, prefix, timeout)
+
+
+@dataclass(frozen=True, eq=False)
+class TaskAnswer(_Answer):
+    """Task vectors ``r`` (N, m) and analytic Jacobians ``J_r`` (N, m, dof) of ``link``."""
+
+    link: str
+    representation: Any  # kinematics.algorithms.task.TaskRepresentation
+    r: np.ndarray
+    J_r: np.ndarray
+
+
+def task(model: RobotModel, q: Any, *, link: str | None = None, representation: str = "rpy",
+         components: Sequence[str] | None = None, base: Any = None, limits: str = "report",
+         budget: Budget = UNBOUNDED) -> TaskAnswer:
+    """Task vectors ``r = (p, phi)`` of ``link`` (None: the first leaf link) and their analytic
+    Jacobians ``J_r = dr/dq = blockdiag(I, E(phi)^-1) J`` (:mod:`kinematics.algorithms.task`),
+    for joint values ``q`` in the world of ``base``; ``limits`` as :func:`fk`. At a singularity
+    of the representation: :class:`~kinematics.errors.RepresentationSingularityError`."""
+    from .algorithms.task import task as _task, task_representation
+
+    rep = task_representation(representation, components)
+    Q, is_batch = _prepare(model, q, limits, budget)
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    N = Q.shape[0]
+    budget.check_result(N * rep.size * (model.dof + 1), f"{N} configurations x {rep.size} x ({model.dof} + 1)")
+    r, J_r = _task(model, Q, link, rep, base_poses(base, N))
+    return TaskAnswer(model, Q, is_batch, link, rep, r, J_r)
+
+
+#: the model descriptions the library reads, by kind: (reader of a dict, file reader, canonical dict, model)
+def _descriptions():
+    from .io import axes_model, dh_table, poe_model
+
+    return {
+        "dh": (dh_table.table_from_dict, dh_table.load_table,
+               lambda t: dh_table.table_to_dict(t, angles="radians"), dh_table.model_from_table),
+        "poe": (poe_model.poe_from_dict, poe_model.load_poe, poe_model.poe_to_dict, poe_model.model_from_poe),
+        "axes": (axes_model.axes_from_dict, axes_model.load_axes, axes_model.axes_to_dict, axes_model.model_from_axes),
+    }
+
+
+DESCRIPTION_KINDS = ("dh", "poe", "axes")
+
+
+def model_from_description(kind: str, description: Any, *, max_links: int | None = None
+                           ) -> tuple[RobotModel, dict[str, Any]]:
+    """``(model, canonical dict)`` of a model description: a DH table, a PoE description or a
+    zero-configuration axes description (``kind``), given as a dict (the JSON of ``POST /models/<kind>``)
+    or a ``.yaml``/``.json`` file path. The canonical dict (radians, every field explicit) reads back
+    to the same model."""
+    if kind not in DESCRIPTION_KINDS:
+        raise KinematicsError(f"kind: {kind!r} is not one of {list(DESCRIPTION_KINDS)}")
+    from_dict, load, to_dict, build = _descriptions()[kind]
+    spec = from_dict(description) if isinstance(description, dict) else load(description)
+    kwargs = {} if max_links is None else {"max_links": max_links}
+    return build(spec, **kwargs), to_dict(spec)
+
+
+def description_urdf(kind: str, description: Any) -> str:
+    """The URDF text a description becomes (dict or file path, as :func:`model_from_description`)."""
+    return model_from_description(kind, description)[0].urdf

@@ -73,3 +73,59 @@ class BudgetError(KinematicsError):
         self.budget = budget
         self.field = field
         self.limit = limit
+
+
+class PoEError(KinematicsError):
+    """A product-of-exponentials description (``M``, screws ``S_i`` or ``B_i``) that is malformed."""
+
+
+class AxesError(KinematicsError):
+    """A zero-configuration axes description (``h_i``, ``p_{i-1,i}``, ``p_nT``) that is malformed."""
+
+
+class SymbolicError(KinematicsError):
+    """A closed-form (symbolic) request that cannot be served: a bad expression or parameter
+    name, a chain without moving joints, an unsupported task representation."""
+
+
+class SymbolicTimeoutError(SymbolicError):
+    """The closed forms took longer than the time limit (``timeout``)."""
+
+    def __init__(self, message: str, *, timeout: float):
+        super().__init__(message)
+        self.timeout = timeout
+
+
+class TaskError(KinematicsError):
+    """A task-space representation that is unknown or malformed (``representation``, ``components``)."""
+
+
+class RepresentationSingularityError(TaskError):
+    """The orientation representation is singular at a configuration: ``E(phi)`` is not invertible
+    (Euler angles at their gimbal lock, a rotation vector at a half turn)."""
+
+
+class XacroError(URDFError):
+    """A xacro document that cannot be expanded: malformed, a missing include, package or
+    argument, or a file or expression the sandbox refused (the message names it)."""
+
+
+class ExpansionLimitError(XacroError):
+    """A xacro expansion over one of its limits (CPU time, memory, output size, macro calls)."""
+
+
+class ArchiveError(URDFError):
+    """A description archive (``.zip``, ``.tar.gz``) that is malformed or hostile: a path that
+    leaves the archive, a link, a device, or no description to load (the message names the member)."""
+
+
+class ArchiveTooLargeError(ArchiveError):
+    """A description archive over its size limits (uncompressed bytes, members): a zip bomb."""
+
+
+class MJCFError(URDFError):
+    """An MJCF (MuJoCo) document that is malformed, names files, or uses what the product does not read."""
+
+
+class DescriptionFormatError(URDFError):
+    """A body that is none of the descriptions the product reads (URDF, xacro, MJCF, zip or gzip archive)."""

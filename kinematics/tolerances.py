@@ -21,3 +21,6 @@ MAX_ABS_COORDINATE = 1e6
 MAX_ABS_JOINT_VALUE = 1e6
 #: Below this norm an axis is treated as zero (and refused by the parsers).
 AXIS_EPS = 1e-12
+#: Below this |det E(phi)| (Euler angles: |cos pitch| or |sin theta|; rotation vectors: pi - theta;
+#: quaternions: qw) a task representation counts as singular and its analytic Jacobian is refused.
+REPRESENTATION_SINGULARITY_TOLERANCE = 1e-9

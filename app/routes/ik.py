@@ -23,6 +23,7 @@ from ..npy import decode_targets, names_header
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
 from ..schemas import IK_EXAMPLES, IKRequest, IKResponse, Problem
 from ..settings import Settings
+from .kinematics import PointQuery, parse_point
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -49,6 +50,7 @@ async def read_ik_request(
     restarts: Annotated[int, Query(ge=0, le=10_000, description=".npy bodies: random restarts")] = 50,
     random_seed: Annotated[int, Query(ge=0, le=2**63 - 1, description=".npy bodies: restarts' draws")] = 0,
     verify: Annotated[bool, Query(description=".npy bodies: Pinocchio's FK of every answer")] = False,
+    point: PointQuery = None,
 ) -> dict[str, Any]:
     """The request's options as :func:`kinematics.api.ik` keywords, whatever its encoding."""
     body = await read_body(request, settings.max_request_bytes, "request body")
@@ -56,7 +58,7 @@ async def read_ik_request(
     if kind == NPY_MEDIA_TYPE:
         return {"target": decode_targets(body), "link": link, "mode": mode, "position_tolerance": position_tolerance,
                 "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
-                "random_seed": random_seed, "verify": verify}
+                "random_seed": random_seed, "verify": verify, "point": parse_point(point)}
     if kind not in ("application/json", ""):
         raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json or {NPY_MEDIA_TYPE}",
                            slug="unsupported-media-type")
@@ -87,6 +89,8 @@ async def inverse_kinematics(model_id: ModelId, options: Annotated[dict, Depends
     only when FK of `q` is within `tolerance` of the target **and** `q` is inside the limits; an
     unreachable target answers 200 with the best `q` found and `success: false`. Work
     (targets x (restarts + 1) x max_iterations) is bounded by the `max_ik_work` setting (413).
+    With `point` ([x, y, z] in the link frame) or `tool` (a pose `T_link_tool`) the targets are
+    poses of that frame (a TCP without a URDF edit).
     """
     if pose_count(options["target"]) <= INLINE_MAX_TARGETS:
         return _solve(model_id, options, request, registry, settings)

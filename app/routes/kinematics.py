@@ -63,6 +63,25 @@ class Call:
     link: str | None = None  # Jacobian
     reference: str = "world"
     base: Any = None  # T_world_root: one pose or one per configuration (JSON bodies)
+    point: Any = None  # [x, y, z] in the link frame
+    tool: Any = None  # T_link_tool (JSON bodies)
+
+
+def parse_point(value: str | None) -> list[float] | None:
+    """A ``point`` query parameter ``x,y,z`` (metres, the link frame) as three numbers."""
+    if value is None:
+        return None
+    try:
+        point = [float(v) for v in value.split(",")]
+    except ValueError:
+        point = []
+    if len(point) != 3:
+        raise ProblemError(422, f"point: {value!r}; give three comma-separated numbers x,y,z (metres, link frame)",
+                           slug="validation-error", field="point")
+    return point
+
+
+PointQuery = Annotated[str | None, Query(description=".npy bodies: a point x,y,z in the link frame (metres)")]
 
 
 def _split_names(values: list[str] | None):
@@ -114,9 +133,11 @@ async def read_fk_call(
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
     format: Annotated[Literal["pose", "matrix", "compact"], Query(description=".npy bodies with a JSON answer: pose format")] = "pose",
+    point: PointQuery = None,
 ) -> Call:
     return await _read_call(request, settings, FKRequest,
-                            {"links": _split_names(links), "verify": verify, "limits": limits, "format": format})
+                            {"links": _split_names(links), "verify": verify, "limits": limits, "format": format,
+                             "point": parse_point(point)})
 
 
 async def read_jacobian_call(
@@ -125,9 +146,11 @@ async def read_jacobian_call(
     reference: Annotated[Reference, Query(description=".npy bodies: reference")] = Reference.WORLD,
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
+    point: PointQuery = None,
 ) -> Call:
     return await _read_call(request, settings, JacobianRequest,
-                            {"link": link, "reference": reference, "verify": verify, "limits": limits})
+                            {"link": link, "reference": reference, "verify": verify, "limits": limits,
+                             "point": parse_point(point)})
 
 
 async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
@@ -162,15 +185,17 @@ async def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(re
     `out_of_limits` lists the joints outside their limits (per configuration for a batch);
     `limits: "refuse"` answers 422 instead. `verify: true` compares with Pinocchio.
     `format`: `pose` (matrix, position, quaternion {w,x,y,z}, rpy), `matrix`, or `compact`
-    (per link `positions` (N, 3) and `quaternions` (N, 4), w first).
+    (per link `positions` (N, 3) and `quaternions` (N, 4), w first). `point` ([x, y, z] in the
+    link frame) or `tool` (a pose `T_link_tool`) give the poses of that frame instead
+    (`T_world_link @ T_link_tool`, on every link returned).
     """
     return await _run(_forward_kinematics, model_id, call, request, registry, settings)
 
 
 def _forward_kinematics(model_id: str, call: Call, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
-    answer = api.fk(rec.model, call.q, links=call.links, base=call.base, verify=call.verify, limits=call.limits,
-                    budget=_budget(settings))
+    answer = api.fk(rec.model, call.q, links=call.links, base=call.base, point=call.point, tool=call.tool,
+                    verify=call.verify, limits=call.limits, budget=_budget(settings))
     verification = answer.verification
     if wants_npy(request):
         headers = _names_headers(answer.links, rec.model.joint_names)
@@ -200,6 +225,8 @@ async def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobia
 
     Also the singular values, manipulability (their product) and condition number
     (largest / smallest; `null` at a singularity). `verify: true` compares with Pinocchio.
+    `point` / `tool`: the Jacobian of the frame at that offset from the link (Pinocchio's frame
+    semantics: the `local_world_aligned` reference point is its origin, `local` its axes).
     """
     return await _run(_jacobian, model_id, call, request, registry, settings)
 
@@ -207,7 +234,8 @@ async def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobia
 def _jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     answer = api.jacobian(rec.model, call.q, link=call.link, reference=call.reference, base=call.base,
-                          verify=call.verify, limits=call.limits, budget=_budget(settings))
+                          point=call.point, tool=call.tool, verify=call.verify, limits=call.limits,
+                          budget=_budget(settings))
     J, verification = answer.jacobians, answer.verification
     if wants_npy(request):
         headers = _names_headers([answer.link], rec.model.joint_names)

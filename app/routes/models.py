@@ -1,7 +1,8 @@
-"""The model catalogue: list, register (URDF or DH table), inspect, export, delete."""
+"""The model catalogue: list, register (URDF, DH table, PoE or zero-configuration axes), inspect, export, delete."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Literal
 
 import orjson
@@ -9,12 +10,14 @@ from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import Response as PlainResponse
 
 from kinematics import api
+from kinematics.io.archive import ArchiveLimits
+from kinematics.io.xacro import SandboxLimits
 from kinematics.io.dh_table import table_to_dict
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, require_write_key
 from ..errors import ProblemError
-from ..schemas import (DH_EXAMPLES, URDF_EXAMPLES, DHTable, ModelInfo, ModelSummary, Problem, Screws,
-                       TWO_LINK_URDF, URDFUpload)
+from ..schemas import (AXES_EXAMPLES, DH_EXAMPLES, POE_EXAMPLES, URDF_EXAMPLES, DHTable, ModelInfo, ModelSummary,
+                       Problem, Screws, TWO_LINK_URDF, URDFUpload)
 from ..views import model_info
 
 router = APIRouter(tags=["models"], dependencies=[Depends(require_read_key)])
@@ -42,21 +45,74 @@ def list_models(registry: RegistryDep) -> list[ModelSummary]:
     return [ModelSummary(id=s.id, name=s.name, source=s.source, dof=s.dof, error=s.error) for s in registry.summaries()]
 
 
-async def read_urdf_upload(request: Request, settings: SettingsDep,
-                           name: Annotated[str | None, Query(max_length=200, description="display name (raw XML bodies)")] = None
-                           ) -> tuple[bytes, str | None]:
-    """The URDF of a ``POST /models``: a raw XML body, or JSON ``{"urdf": ..., "name": ...}``."""
-    body = await read_body(request, settings.max_model_bytes, "URDF body")
+#: archive bodies (a zip, gzip or tar of ROS packages); octet-stream is sniffed like them
+ARCHIVE_TYPES = ("application/zip", "application/x-zip-compressed", "application/gzip", "application/x-gzip",
+                 "application/x-tar", "application/x-gtar", "application/x-compressed-tar", "application/octet-stream")
+
+
+@dataclass(frozen=True)
+class Upload:
+    """A ``POST /models`` body and its options."""
+
+    data: bytes
+    name: str | None = None
+    args: dict[str, str] | None = None
+    entry: str | None = None
+
+
+def _xacro_args(args_json: str | None, arg: list[str] | None) -> dict[str, str] | None:
+    """``?args={"k": "v"}`` (a JSON object) and repeated ``?arg=k:v`` (or ``k=v``), merged."""
+    out: dict[str, str] = {}
+    if args_json is not None:
+        try:
+            parsed = orjson.loads(args_json)
+        except orjson.JSONDecodeError as exc:
+            raise ProblemError(422, f"args is not valid JSON: {exc}", slug="validation-error", field="args") from None
+        if not isinstance(parsed, dict):
+            raise ProblemError(422, "args must be a JSON object of xacro arguments", slug="validation-error", field="args")
+        for k, v in parsed.items():
+            if isinstance(v, (dict, list)) or v is None:
+                raise ProblemError(422, f"args: xacro argument {k!r} must be a string or a number",
+                                   slug="validation-error", field="args")
+            out[k] = ("true" if v else "false") if isinstance(v, bool) else str(v)
+    for item in arg or ():
+        sep = min((i for i in (item.find(":"), item.find("=")) if i > 0), default=-1)
+        if sep < 0:
+            raise ProblemError(422, f"arg {item[:80]!r} is not name:value", slug="validation-error", field="arg")
+        out[item[:sep]] = item[sep + 1:]
+    return out or None
+
+
+async def read_urdf_upload(
+    request: Request, settings: SettingsDep,
+    name: Annotated[str | None, Query(max_length=200, description="display name (raw bodies)")] = None,
+    args: Annotated[str | None, Query(max_length=100_000, description="xacro arguments: a JSON object "
+                                      "`{\"name\": value}`")] = None,
+    arg: Annotated[list[str] | None, Query(max_length=10_000, description="a xacro argument `name:value` "
+                                           "(repeatable)")] = None,
+    entry: Annotated[str | None, Query(max_length=1000, description="the description file of an archive "
+                                       "(default: its only one)")] = None,
+) -> Upload:
+    """The body of a ``POST /models``: a raw document (URDF, xacro, MJCF: XML types), an archive
+    (zip, gzip, tar), or JSON ``{"urdf": ..., "name": ..., "args": ...}``. What it is comes from the
+    content; the type picks the size limit (archives: ``max_archive_bytes``)."""
     kind = media_type(request)
+    is_archive = kind in ARCHIVE_TYPES
+    if not (is_archive or kind in JSON_TYPES or kind in XML_TYPES or kind == ""):
+        raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/xml (raw URDF, xacro or "
+                           "MJCF), application/zip or application/gzip (a description archive), or application/json "
+                           "({\"urdf\": ..., \"name\": ...})", slug="unsupported-media-type")
+    limit = settings.max_archive_bytes if is_archive else settings.max_model_bytes
+    body = await read_body(request, limit, "archive body" if is_archive else "URDF body")
+    xargs = _xacro_args(args, arg)
     if kind in JSON_TYPES:
         upload = URDFUpload.model_validate_json(body)
-        return upload.urdf.encode("utf-8"), upload.name or name
-    if kind in XML_TYPES or kind == "":
-        if not body.strip():
-            raise ProblemError(422, "the body is empty: send a URDF document", slug="invalid-urdf", field="body")
-        return body, name
-    raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/xml (raw URDF) "
-                       "or application/json ({\"urdf\": ..., \"name\": ...})", slug="unsupported-media-type")
+        merged = {**{k: ("true" if v else "false") if isinstance(v, bool) else str(v)
+                     for k, v in (upload.args or {}).items()}, **(xargs or {})}
+        return Upload(upload.urdf.encode("utf-8"), upload.name or name, merged or None, entry)
+    if not body.strip():
+        raise ProblemError(422, "the body is empty: send a URDF document", slug="invalid-urdf", field="body")
+    return Upload(body, name, xargs, entry)
 
 
 def _created(response: Response, created: bool, model_id: str) -> None:
@@ -72,35 +128,67 @@ def _created(response: Response, created: bool, model_id: str) -> None:
     openapi_extra={"requestBody": {"required": True, "content": {
         "application/xml": {"schema": {"type": "string"}, "example": TWO_LINK_URDF},
         "application/json": {"schema": {"$ref": "#/components/schemas/URDFUpload"}, "examples": URDF_EXAMPLES},
+        "application/zip": {"schema": {"type": "string", "format": "binary"}},
+        "application/gzip": {"schema": {"type": "string", "format": "binary"}},
     }}},
 )
-def register_urdf(upload: Annotated[tuple[bytes, str | None], Depends(read_urdf_upload)], registry: RegistryDep,
-                  response: Response) -> dict:
-    """Register a URDF (raw XML body, or JSON `{"urdf", "name"}`).
+def register_urdf(upload: Annotated[Upload, Depends(read_urdf_upload)], registry: RegistryDep,
+                  settings: SettingsDep, response: Response) -> dict:
+    """Register a robot description: URDF, xacro, MJCF, or a description archive -- told apart by content.
 
-    The id is `u-` + 16 hex digits of the SHA-256 of the URDF bytes: the same file gives the
-    same id on every replica. 201 when created, 200 when already registered; the body is
-    the model's info either way. Meshes named by the file are never opened.
+    * **URDF** (raw XML body, or JSON `{"urdf", "name"}`): the id is `u-` + 16 hex digits of the
+      SHA-256 of the bytes;
+    * **xacro** text (`?args={"name": value}` or repeated `?arg=name:value`): expanded in a
+      sandboxed process (CPU, memory and output limits; it can read nothing but the text itself);
+    * **MJCF** (`<mujoco>`): compiled by MuJoCo with meshes and geometry left out;
+    * a **zip**, **gzip** or **tar** archive of ROS packages (`application/zip`, `application/gzip`):
+      the description files are extracted (never the meshes), `$(find pkg)` resolves the
+      packages in it, `?entry=path` picks the file (default: the only description in it).
+
+    The last three are stored as the URDF they became (`GET /models/{id}/urdf`), under an id
+    `x-`, `m-` or `a-` + 16 hex digits hashing the bytes, the arguments and the entry; `format`
+    in the answer says what was read. 201 when created, 200 when already registered; the body
+    is the model's info either way. Meshes named by any file are never opened.
     """
-    data, name = upload
-    rec, created = registry.add_urdf(data, name)
+    rec, created = registry.add_upload(
+        upload.data, upload.name, args=upload.args, entry=upload.entry,
+        xacro_limits=SandboxLimits(cpu_seconds=settings.xacro_cpu_seconds, memory_bytes=settings.xacro_memory_bytes,
+                                   output_bytes=settings.max_model_bytes, wall_seconds=3 * settings.xacro_cpu_seconds + 5,
+                                   max_macro_calls=settings.xacro_max_macro_calls),
+        archive_limits=ArchiveLimits(max_members=settings.max_archive_members,
+                                     max_bytes=settings.max_archive_extracted_bytes,
+                                     max_stream_bytes=8 * settings.max_archive_bytes),
+    )
     _created(response, created, rec.id)
     return model_info(rec)
 
 
-async def read_dh_table(request: Request, settings: SettingsDep) -> dict:
-    body = await read_body(request, settings.max_model_bytes, "DH table body")
+async def read_json_object(request: Request, settings: SettingsDep, what: str) -> dict:
+    """A model description body: a JSON object of at most ``max_model_bytes``."""
+    body = await read_body(request, settings.max_model_bytes, f"{what} body")
     kind = media_type(request)
     if kind not in JSON_TYPES and kind != "":
-        raise ProblemError(415, f"Content-Type {kind!r} is not supported: send the DH table as application/json",
+        raise ProblemError(415, f"Content-Type {kind!r} is not supported: send the {what} as application/json",
                            slug="unsupported-media-type")
     try:
-        table = orjson.loads(body)
+        data = orjson.loads(body)
     except orjson.JSONDecodeError as exc:
         raise ProblemError(422, f"the body is not valid JSON: {exc}", slug="validation-error", field="body") from None
-    if not isinstance(table, dict):
-        raise ProblemError(422, "the DH table must be a JSON object", slug="validation-error", field="body")
-    return table
+    if not isinstance(data, dict):
+        raise ProblemError(422, f"the {what} must be a JSON object", slug="validation-error", field="body")
+    return data
+
+
+async def read_dh_table(request: Request, settings: SettingsDep) -> dict:
+    return await read_json_object(request, settings, "DH table")
+
+
+async def read_poe(request: Request, settings: SettingsDep) -> dict:
+    return await read_json_object(request, settings, "PoE description")
+
+
+async def read_axes(request: Request, settings: SettingsDep) -> dict:
+    return await read_json_object(request, settings, "axes description")
 
 
 @router.post(
@@ -118,6 +206,47 @@ def register_dh(table: Annotated[dict, Depends(read_dh_table)], registry: Regist
     created, 200 when already registered.
     """
     rec, created = registry.add_dh(table)
+    _created(response, created, rec.id)
+    return model_info(rec)
+
+
+@router.post(
+    "/models/poe", response_model=ModelInfo, status_code=201, responses={200: {"model": ModelInfo, "description":
+        "the same description is already registered (same id)"}, **_WRITE_ERRORS},
+    dependencies=[Depends(require_write_key)],
+    openapi_extra={"requestBody": {"required": True, "content": {
+        "application/json": {"schema": {"$ref": "#/components/schemas/PoEDescriptionIn"}, "examples": POE_EXAMPLES}}}},
+)
+def register_poe(description: Annotated[dict, Depends(read_poe)], registry: RegistryDep, response: Response) -> dict:
+    """Register a model from a product of exponentials: `M` and one screw per joint, angular first,
+    in the space frame (`S`) or the end-effector frame (`B`).
+
+    The description becomes a URDF (joint frames on the screw axes, `tool` at `M`); its FK is
+    `exp([S_1] q_1) ... exp([S_n] q_n) M` and `GET /models/{id}/screws` gives the `S_i` back.
+    The id is `poe-` + 16 hex digits of the SHA-256 of the canonical description (space
+    screws, radians). 201 when created, 200 when already registered.
+    """
+    rec, created = registry.add_description("poe", description)
+    _created(response, created, rec.id)
+    return model_info(rec)
+
+
+@router.post(
+    "/models/axes", response_model=ModelInfo, status_code=201, responses={200: {"model": ModelInfo, "description":
+        "the same description is already registered (same id)"}, **_WRITE_ERRORS},
+    dependencies=[Depends(require_write_key)],
+    openapi_extra={"requestBody": {"required": True, "content": {
+        "application/json": {"schema": {"$ref": "#/components/schemas/AxesDescriptionIn"}, "examples": AXES_EXAMPLES}}}},
+)
+def register_axes(description: Annotated[dict, Depends(read_axes)], registry: RegistryDep, response: Response) -> dict:
+    """Register a model from zero-configuration axes (Wen): per joint its type, axis `h` and link
+    vector `p` = p_{i-1,i} (every frame aligned with the base at q = 0), and the tool offset `p_nT`.
+
+    FK: `p_0T = p_01 + R_01 p_12 + ... + R_0n p_nT` with `R_{i-1,i} = rot(h_i, q_i)` (prismatic:
+    `p_{i-1,i} + q_i h_i`). The id is `axes-` + 16 hex digits of the SHA-256 of the canonical
+    description. 201 when created, 200 when already registered.
+    """
+    rec, created = registry.add_description("axes", description)
     _created(response, created, rec.id)
     return model_info(rec)
 

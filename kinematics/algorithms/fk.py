@@ -43,12 +43,14 @@ from .base import poses_in_world
 
 
 def forward_kinematics(model: RobotModel, Q, links: Sequence[str] | None = None, base: np.ndarray | None = None,
-                       out: np.ndarray | None = None) -> np.ndarray:
+                       out: np.ndarray | None = None, tool: np.ndarray | None = None) -> np.ndarray:
     """Poses ``T_world_link`` (N, L, 4, 4) of ``links`` (None: every link, in ``model.links``
     order) for joint values ``Q`` (N, dof) in ``model.joint_names`` order.
 
     ``base``: ``T_world_root`` per configuration (N, 4, 4), or None for the root frame.
     ``out``: a C-contiguous float64 array of the result's shape to write into (no base).
+    ``tool``: ``T_link_tool`` (4, 4): the poses are then ``T_world_link @ T_link_tool`` (a tool
+    frame, or a point with the link's axes, on every link returned).
     """
-    T = compile_model(model).fk(Q, links, out=out)
+    T = compile_model(model).fk(Q, links, out=out, tool=tool)
     return poses_in_world(T, base)

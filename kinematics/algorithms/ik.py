@@ -100,8 +100,11 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
                        position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
                        rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE,
                        max_iterations: int = DEFAULT_MAX_ITERATIONS, restarts: int = DEFAULT_RESTARTS,
-                       random_seed: int = 0) -> IKSolution:
+                       random_seed: int = 0, tool: np.ndarray | None = None) -> IKSolution:
     """Joint values putting ``link`` at ``targets`` (N, 4, 4) ``T_world_link``.
+
+    ``tool``: ``T_link_tool`` (4, 4); the targets are then poses of that tool frame
+    (``T_world_link @ T_link_tool``), the errors measured on it.
 
     ``seeds``: (N, dof) or (dof,) starting values (default: the middle of the limits); joints
     off the link's path keep them. ``base``: ``T_world_root`` (N, 4, 4), or None.
@@ -127,10 +130,10 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     Q, _, _, steps = poe.kernel.ik(
         Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous, model.angular,
         mode == "position", float(position_tolerance), float(rotation_tolerance), int(max_iterations),
-        int(restarts), ik_kernel.streams(T_root, Q0, np.uint64(int(random_seed) & 0xFFFFFFFFFFFFFFFF)), DAMPING, POLISH, STALL_STEPS)
+        int(restarts), ik_kernel.streams(T_root, Q0, np.uint64(int(random_seed) & 0xFFFFFFFFFFFFFFFF)), DAMPING, POLISH, STALL_STEPS, tool=tool)
     # the answer's own errors, measured on its pose from the FK kernel: success is only what they show
     position, rotation, success = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
-    ik_kernel.measure(poe.fk(Q, [link])[:, 0], T_root, Q, model.lower_limits, model.upper_limits, LIMIT_TOLERANCE,
+    ik_kernel.measure(poe.fk(Q, [link], tool=tool)[:, 0], T_root, Q, model.lower_limits, model.upper_limits, LIMIT_TOLERANCE,
                       float(position_tolerance), float(rotation_tolerance), mode == "position", position, rotation,
                       success)
     return IKSolution(Q, success, position, rotation, steps)

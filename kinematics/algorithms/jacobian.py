@@ -33,8 +33,14 @@ from .base import jacobian_in_world
 
 
 def jacobian(model: RobotModel, Q, link: str, reference: str = Reference.WORLD,
-             base: np.ndarray | None = None) -> np.ndarray:
+             base: np.ndarray | None = None, tool: np.ndarray | None = None) -> np.ndarray:
     """Jacobians (N, 6, dof) of ``link``, linear rows first, in ``reference``, for joint values
-    ``Q`` (N, dof); ``base``: ``T_world_root`` per configuration, or None for the root frame."""
-    J = compile_model(model).jacobian(Q, link, reference)
+    ``Q`` (N, dof); ``base``: ``T_world_root`` per configuration, or None for the root frame.
+
+    ``tool``: ``T_link_tool`` (4, 4): the Jacobian of the frame at that offset from the link, as
+    Pinocchio has it for a frame added there: ``local_world_aligned`` (and ``world`` after a base)
+    rows take the tool origin as their reference point (``v_tool = v_link + ω × (p_tool -
+    p_link)``), ``local`` also turns into the tool's axes. A point is a tool with the link's axes.
+    """
+    J = compile_model(model).jacobian(Q, link, reference, tool=tool)
     return jacobian_in_world(J, base, reference)

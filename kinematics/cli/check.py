@@ -14,9 +14,10 @@ from .progress import progress
 def register(sub) -> None:
     p = sub.add_parser(
         "check",
-        help="compare FK and Jacobians with Pinocchio on the catalogue",
-        description="For every catalogue model (or those named), compare FK of every link and the three "
-        "Jacobians of every leaf link with Pinocchio at random configurations. Exit 1 on any disagreement.",
+        help="compare FK, Jacobians and velocities with Pinocchio on the catalogue",
+        description="For every catalogue model (or those named), compare FK of every link, the three "
+        "Jacobians of every leaf link and the velocity of every link (three references, random joint "
+        "velocities) with Pinocchio at random configurations. Exit 1 on any disagreement.",
     )
     p.add_argument("--samples", type=int, default=5, help="configurations per model (default 5)")
     p.add_argument("--model", action="append", metavar="ID", help="check only this model (repeatable)")
@@ -36,14 +37,15 @@ def run(args) -> int:
         results.append(check_model(mid, lambda mid=mid: cat.get(mid), args.samples, args.seed, args.tolerance))
     elapsed = time.perf_counter() - t0
     w = max(len(r.model_id) for r in results)
-    print(f"{'model':<{w}}  {'dof':>4}  {'links':>5}  {'position':>9}  {'rotation':>9}  {'jacobian':>9}  status")
+    print(f"{'model':<{w}}  {'dof':>4}  {'links':>5}  {'position':>9}  {'rotation':>9}  {'jacobian':>9}  "
+          f"{'velocity':>9}  status")
     for r in results:
         if r.status == "refused":
-            print(f"{r.model_id:<{w}}  {'-':>4}  {'-':>5}  {'-':>9}  {'-':>9}  {'-':>9}  refused: {r.message}")
+            print(f"{r.model_id:<{w}}  {'-':>4}  {'-':>5}  {'-':>9}  {'-':>9}  {'-':>9}  {'-':>9}  refused: {r.message}")
         else:
             print(
                 f"{r.model_id:<{w}}  {r.dof:>4}  {r.links:>5}  {r.position_error:>9.2e}  "
-                f"{r.rotation_error:>9.2e}  {r.jacobian_error:>9.2e}  {r.status}"
+                f"{r.rotation_error:>9.2e}  {r.jacobian_error:>9.2e}  {r.velocity_error:>9.2e}  {r.status}"
             )
     print(f"{len(results)} models, {args.samples} configurations each, {elapsed:.1f} s", file=sys.stderr)
     print(summary_line(results, args.tolerance))

@@ -25,10 +25,12 @@ from ..algorithms.ik import (
     MIN_TOLERANCE,
 )
 from ..errors import JointValueError
-from ..io.trajectory import ResultWriter, open_target_rows
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _endpoints, _fail, _io_options, _model_options, _quietly, _timing, load_model
+from .pipeline import (
+    ModelLoadError, _endpoints, _fail, _io_options, _model_options, _quietly, _timing, chunk_times, load_model, open_input,
+    open_output,
+)
 from .progress import progress
 
 #: failed targets named on stderr at most
@@ -139,17 +141,17 @@ def _solve(args, model, link: str, seed) -> int:
     source, in_fmt, dest, out_fmt = _endpoints(args)
     summary = _Summary(args)
     t0 = time.perf_counter()
-    with open_target_rows(source, in_fmt, args.chunk) as targets:
+    with open_input(args, model, source, in_fmt, targets=True) as targets:
         bar = progress(total=targets.total, desc="ik", unit="target")
         try:
-            with ResultWriter(dest, out_fmt, "ik", model.joint_names) as writer:
+            with open_output(args, dest, out_fmt, "ik", model.joint_names, model, targets) as writer:
                 for start, T in targets:
                     answer = api.ik(model, T, link=link, seed=seed, mode=args.mode,
                                     position_tolerance=args.position_tolerance,
                                     rotation_tolerance=args.rotation_tolerance,
                                     max_iterations=args.max_iterations, restarts=args.restarts,
                                     random_seed=args.random_seed, verify=args.verify)
-                    writer.write(answer.solution)
+                    writer.write(answer.solution, chunk_times(targets, start, T.shape[0]))
                     summary.add(start, answer)
                     bar.update(T.shape[0])
         finally:

@@ -18,12 +18,20 @@ import time
 from .. import api
 from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
-from ..io.trajectory import CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows
+from ..io.trajectory import (
+    CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows, open_target_rows,
+)
 from ..model.robot import RobotModel
 from ..spatial.reference import REFERENCES, Reference
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .progress import progress
+#: input formats beyond the trajectory files: Parquet (file, directory or glob) and ROS bags
+IN_FORMATS = FORMATS + ("parquet", "rosbag")
+#: output formats beyond the trajectory files: Parquet, and MCAP (a TF tree, FK only)
+OUT_FORMATS = FORMATS + ("parquet", "mcap")
+#: nanoseconds between samples of an MCAP output whose input has no time
+UNTIMED_STEP_NS = 10_000_000
 #: rows sampled by a bare ``--verify``
 DEFAULT_VERIFY_ROWS = 100
 
@@ -39,6 +47,16 @@ FORMAT_HELP = """input (INPUT, by extension; '-' reads CSV from standard input):
            (reordered to the model's joint order), else columns in joint_names order
   .npy     numeric array (N, dof), read memory-mapped
   .jsonl   JSON lines: a list of dof numbers, or a {"joint": value} object per line
+  .parquet columns named like the joints (any order; others ignored) and an optional time column
+           ('time', or --time-column), carried to Parquet/MCAP output; a directory or glob of
+           Parquet files is read as one dataset
+  .bag .db3 .mcap  ROS 1 / ROS 2 bags (or a ROS 2 bag directory): sensor_msgs/JointState of
+           --topic (default: the first JointState topic), joints mapped by name per message;
+           a message without a model joint is an error (or skipped: --skip-incomplete); the
+           time is the header stamp (ns)
+output (-o, by extension): .csv .npy .jsonl; .parquet (time column first, then per link
+  <link>.x ... <link>.qz, or J<r><c>); .mcap (fk only: tf2_msgs/TFMessage on /tf, every link,
+  for Foxglove; --pose-topics adds geometry_msgs/PoseStamped per link)
   Error messages count CSV/JSON lines from 1 (as an editor does) and .npy rows from 0."""
 
 
@@ -53,6 +71,14 @@ def _model_options(p: argparse.ArgumentParser) -> None:
     src.add_argument("--model", metavar="ID", help="a catalogue model (see `kinematics models`)")
     src.add_argument("--urdf", metavar="FILE", help="a URDF file (meshes it names are never opened)")
     src.add_argument("--dh", metavar="TABLE", help="a DH table (.yaml/.yml/.json), converted to URDF")
+    src.add_argument("--xacro", metavar="FILE", help="a xacro file, expanded in a sandboxed process (it reads only "
+                     "its directory and --package-path)")
+    src.add_argument("--mjcf", metavar="FILE", help="a MuJoCo MJCF file (hinge, slide and fixed bodies; meshes "
+                     "are never opened)")
+    g.add_argument("--arg", action="append", default=[], metavar="NAME=VALUE",
+                   help="a xacro argument (repeatable; with --xacro)")
+    g.add_argument("--package-path", action="append", default=[], metavar="DIR",
+                   help="a directory of ROS packages that $(find pkg) resolves (repeatable; with --xacro)")
 
 
 def _io_options(p: argparse.ArgumentParser, what: str = "joint values", verify: bool = True) -> None:
@@ -60,8 +86,9 @@ def _io_options(p: argparse.ArgumentParser, what: str = "joint values", verify: 
     p.add_argument("input", metavar="INPUT", help=f"{what}: .csv, .npy or .jsonl ('-': CSV on stdin)")
     p.add_argument("-o", "--output", metavar="OUTPUT", default="-",
                    help="results file: .csv, .npy or .jsonl by extension (default: CSV on stdout)")
-    p.add_argument("--input-format", choices=FORMATS, help="format of INPUT when its extension does not tell")
-    p.add_argument("--output-format", choices=FORMATS, help="format of OUTPUT when its extension does not tell")
+    p.add_argument("--input-format", choices=IN_FORMATS, help="format of INPUT when its extension does not tell")
+    p.add_argument("--output-format", choices=OUT_FORMATS, help="format of OUTPUT when its extension does not tell")
+    p.add_argument("--time-column", metavar="NAME", help="Parquet input: the time column (default 'time' when present)")
     if verify:
         p.add_argument("--verify", nargs="?", type=int, const=DEFAULT_VERIFY_ROWS, default=None, metavar="K",
                        help=f"compare K randomly sampled rows (default {DEFAULT_VERIFY_ROWS}) with Pinocchio; "
@@ -70,6 +97,18 @@ def _io_options(p: argparse.ArgumentParser, what: str = "joint values", verify: 
         p.add_argument("--seed", type=int, default=0, help="seed of the --verify sample (default 0)")
     p.add_argument("--chunk", type=int, default=CHUNK_ROWS, metavar="ROWS",
                    help=f"rows per chunk (default {CHUNK_ROWS}); bounds the memory used")
+
+
+def _log_options(p: argparse.ArgumentParser) -> None:
+    """Options of ROS bag input and MCAP output."""
+    p.add_argument("--topic", metavar="TOPIC", help="ROS bag input: the JointState topic (default: the first one)")
+    p.add_argument("--skip-incomplete", action="store_true",
+                   help="ROS bag input: skip (and count) messages missing a model joint instead of failing")
+    p.add_argument("--pose-topics", action="store_true",
+                   help="MCAP output: also a geometry_msgs/PoseStamped per link on /pose/<link>")
+    p.add_argument("--dask", metavar="SCHEDULER|local:N",
+                   help="run on Dask over the partitions of a Parquet INPUT (file, directory or glob): a scheduler "
+                   "address (tcp://host:8786) or local:N worker processes; OUTPUT is a directory of Parquet files")
 
 
 def register(sub) -> None:
@@ -90,6 +129,7 @@ def register(sub) -> None:
     fk.add_argument("--links", action="append", metavar="all|NAME[,NAME...]",
                     help="links to output: 'all', or names (comma-separated or repeated); default: the leaf links")
     _io_options(fk)
+    _log_options(fk)
     fk.set_defaults(func=run_fk)
 
     jac = sub.add_parser(
@@ -111,6 +151,7 @@ def register(sub) -> None:
     jac.add_argument("--link", metavar="NAME", help="the link (default: the model's first leaf link)")
     jac.add_argument("--reference", choices=REFERENCES, default=Reference.WORLD.value, help="reference frame (default world)")
     _io_options(jac)
+    _log_options(jac)
     jac.set_defaults(func=run_jacobian)
 
     models = sub.add_parser(
@@ -126,11 +167,20 @@ def register(sub) -> None:
 
 # ============================================================================ helpers
 def load_model(args) -> RobotModel:
-    """The model named by ``--model``, ``--urdf`` or ``--dh`` (raises :class:`ModelLoadError`)."""
+    """The model named by ``--model``, ``--urdf``, ``--dh``, ``--xacro`` (with ``--arg``, ``--package-path``)
+    or ``--mjcf`` (raises :class:`ModelLoadError`)."""
+    xacro, mjcf = getattr(args, "xacro", None), getattr(args, "mjcf", None)
+    xargs = {}
+    for item in getattr(args, "arg", None) or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise ModelLoadError(f"--arg {item!r} is not NAME=VALUE")
+        xargs[name] = value
     try:
-        return api.load_model(model_id=args.model, urdf=args.urdf, dh=args.dh)
+        return api.load_model(model_id=args.model, urdf=args.urdf, dh=args.dh, xacro=xacro, mjcf=mjcf,
+                              args=xargs or None, package_paths=getattr(args, "package_path", None) or ())
     except OSError as exc:
-        path = exc.filename or args.urdf or args.dh
+        path = exc.filename or args.urdf or args.dh or xacro or mjcf
         raise ModelLoadError(f"cannot read {path}: {exc.strerror or exc}") from None
     except KinematicsError as exc:
         raise ModelLoadError(str(exc)) from None
@@ -172,7 +222,20 @@ def _endpoints(args) -> tuple:
     """``(source, input format, destination, output format)`` of INPUT and -o OUTPUT ('-': stdin, stdout)."""
     in_fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
     out_fmt = "csv" if args.output == "-" and args.output_format is None else args.output_format
-    out_fmt = format_of(args.output, out_fmt)
+    if in_fmt is None:
+        from ..io.logs import is_log
+        from ..io.parquet import is_parquet
+
+        in_fmt = "parquet" if is_parquet(args.input) else "rosbag" if is_log(args.input) else None
+    if out_fmt is None:
+        ext = os.path.splitext(str(args.output))[1].lower()
+        out_fmt = "parquet" if ext in (".parquet", ".pq") else "mcap" if ext == ".mcap" else None
+    if out_fmt in ("parquet", "mcap") and args.output == "-":
+        raise TrajectoryFileError(f"{out_fmt} output must go to a file (-o FILE)")
+    if in_fmt in ("parquet", "rosbag") and args.input == "-":
+        raise TrajectoryFileError(f"{in_fmt} input must be a file")
+    if out_fmt not in ("parquet", "mcap"):
+        out_fmt = format_of(args.output, out_fmt)
     source = sys.stdin if args.input == "-" else args.input
     dest = sys.stdout if args.output == "-" else args.output
     return source, in_fmt, dest, out_fmt
@@ -185,6 +248,80 @@ def _timing(command: str, n: int, noun: str, args, elapsed: float) -> None:
         print(f"{command}: {n} {noun} -> {where} in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f}/s)", file=sys.stderr)
 
 
+def open_input(args, model: RobotModel, source, in_fmt: str | None, targets: bool = False):
+    """The chunked reader of INPUT: Parquet (file, directory, glob), a ROS bag, or a trajectory file
+    (joint values, or target poses when ``targets``). Readers with a time column set ``times``."""
+    if in_fmt == "parquet":
+        from ..io.parquet import ParquetJointRows, ParquetTargetRows
+
+        from ..engine.parallel import thread_count
+
+        rows = (ParquetTargetRows(source, args.chunk, time_column=args.time_column) if targets else
+                ParquetJointRows(source, model, args.chunk, time_column=args.time_column))
+        rows.use_threads = thread_count() > 1
+        return rows
+    if in_fmt == "rosbag":
+        if targets:
+            raise TrajectoryFileError("a ROS bag holds joint states, not target poses")
+        from ..io.logs import open_log
+
+        return open_log(source, model, topic=getattr(args, "topic", None),
+                        skip_incomplete=getattr(args, "skip_incomplete", False), chunk_rows=args.chunk)
+    if targets:
+        return open_target_rows(source, in_fmt, args.chunk)
+    return open_joint_rows(source, model, in_fmt, args.chunk)
+
+
+def open_output(args, dest, out_fmt: str, kind: str, labels, model: RobotModel, rows):
+    """The writer of OUTPUT (``write(result, times)``): Parquet (with the input's time column), MCAP
+    (a TF tree; FK of every link only), or a trajectory file (times dropped)."""
+    time_field = getattr(rows, "time_field", None)
+    if out_fmt == "parquet":
+        from ..io.parquet import ParquetResultWriter
+
+        return ParquetResultWriter(dest, kind, labels, time_field=time_field)
+    if out_fmt == "mcap":
+        if kind != "fk":
+            raise TrajectoryFileError(f"MCAP output is a TF tree of FK poses; write {kind} results to .parquet, .csv, "
+                                      ".npy or .jsonl")
+        from ..io.logs import TFWriter
+
+        return TFWriter(dest, model, pose_topics=getattr(args, "pose_topics", False))
+    return _Untimed(ResultWriter(dest, out_fmt, kind, labels))
+
+
+class _Untimed:
+    """A trajectory-file writer taking (and dropping) the times of a chunk."""
+
+    def __init__(self, writer):
+        self.writer = writer
+
+    def __enter__(self):
+        self.writer.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        return self.writer.__exit__(*exc)
+
+    @property
+    def rows(self) -> int:
+        return self.writer.rows
+
+    def write(self, chunk, times=None) -> None:
+        self.writer.write(chunk)
+
+
+def chunk_times(rows, start: int, n: int):
+    """The times of the chunk just read (the reader's ``times``), or ``start + i`` steps of
+    :data:`UNTIMED_STEP_NS` when the input has none."""
+    times = getattr(rows, "times", None)
+    if times is None:
+        import numpy as np
+
+        return (start + np.arange(n, dtype=np.int64)) * UNTIMED_STEP_NS
+    return times
+
+
 def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
     if args.chunk < 1:
         return _fail(command, "--chunk must be positive", EXIT_USAGE)
@@ -194,14 +331,14 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
     sampler = RowSampler(args.verify or 0, args.seed)
     outside = 0
     t0 = time.perf_counter()
-    with open_joint_rows(source, model, in_fmt, args.chunk) as rows:
+    with open_input(args, model, source, in_fmt) as rows:
         bar = progress(total=rows.total, desc=command, unit="row", unit_scale=True)
         try:
-            with ResultWriter(dest, out_fmt, kind, labels) as writer:
+            with open_output(args, dest, out_fmt, kind, labels, model, rows) as writer:
                 for start, Q in rows:
                     answer = compute(Q)
                     result = answer.poses if kind == "fk" else answer.jacobians
-                    writer.write(result)
+                    writer.write(result, chunk_times(rows, start, Q.shape[0]))
                     sampler.offer(start, Q, result)
                     outside += answer.out_of_limits_count()
                     bar.update(Q.shape[0])
@@ -209,6 +346,8 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
             bar.close()
     n = writer.rows
     _timing(command, n, "configurations", args, time.perf_counter() - t0)
+    if getattr(rows, "skipped", 0):
+        print(f"{command}: skipped {rows.skipped} messages missing a model joint (--skip-incomplete)", file=sys.stderr)
     if outside:
         print(f"{command}: note: {outside} of {n} configurations have joint values outside the joint limits "
               "(computed anyway)", file=sys.stderr)
@@ -221,12 +360,37 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
 
 
 # ============================================================================ commands
+def _run_dask(args, command: str, model: RobotModel, **what) -> int:
+    """``--dask``: the computation mapped over the Parquet partitions of INPUT on a Dask cluster."""
+    from .. import distributed
+    from ..io.parquet import is_parquet
+
+    if args.input == "-" or not is_parquet(args.input):
+        return _fail(command, "--dask reads a Parquet INPUT (a file, a directory or a glob)", EXIT_USAGE)
+    if args.output == "-":
+        return _fail(command, "--dask writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
+    if args.verify is not None:
+        return _fail(command, "--verify is not available with --dask (verify a local run of a sample)", EXIT_USAGE)
+    spec = distributed.model_spec(model_id=args.model, urdf=args.urdf, dh=args.dh)
+    t0 = time.perf_counter()
+    n = distributed.run_parquet(args.input, args.output, spec, kind=command, address=args.dask,
+                                time_column=args.time_column or "time", **what)
+    _timing(command, n, "configurations", args, time.perf_counter() - t0)
+    return EXIT_OK
+
+
 def run_fk(args) -> int:
     try:
         model = load_model(args)
     except ModelLoadError as exc:
         return _fail("fk", str(exc), EXIT_MODEL)
+    if args.dask:
+        return _run_dask(args, "fk", model, links=_resolve_links(model, args.links))
     links = _resolve_links(model, args.links)
+    if _output_format(args) == "mcap":
+        if args.links and _resolve_links(model, args.links) != list(model.links):
+            return _fail("fk", "MCAP output is the TF tree of every link: drop --links (or give --links all)", EXIT_USAGE)
+        links = list(model.links)
 
     def compute(Q):
         return api.fk(model, Q, links=links)
@@ -251,6 +415,8 @@ def run_jacobian(args) -> int:
         return _fail("jacobian", str(exc), EXIT_MODEL)
     link = args.link or model.leaf_links[0]
     api.resolve_links(model, [link])  # unknown link: UnknownLinkError (exit 2) before reading anything
+    if args.dask:
+        return _run_dask(args, "jacobian", model, link=link, reference=args.reference)
 
     def compute(Q):
         return api.jacobian(model, Q, link=link, reference=args.reference)
@@ -265,6 +431,12 @@ def run_jacobian(args) -> int:
         return _verdict("jacobian", err)
 
     return _stream(args, "jacobian", compute, model.joint_names, "jacobian", model, verify)
+
+
+def _output_format(args) -> str | None:
+    if args.output_format is not None:
+        return args.output_format
+    return "mcap" if str(args.output).lower().endswith(".mcap") else None
 
 
 def _verdict(command: str, worst: float) -> int:

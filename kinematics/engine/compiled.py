@@ -127,35 +127,39 @@ def fk(Q, jint, jflt, order, lj, D, out, chunk):
     out: (N, L', 16) row-major poses, written. chunk: configurations per pass.
     """
     N = Q.shape[0]
-    L = lj.shape[0]
     F, W = _scratch(jint.shape[0], chunk)
     for a in range(0, N, chunk):
         m = min(chunk, N - a)
         _chunk_frames(Q, a, m, order, jint, jflt, F, W)
         for i in range(m):
-            row = out[a + i]
-            for k in range(L):
-                o = row[k]
-                j = lj[k]
-                if j < 0:
-                    for e in range(16):
-                        o[e] = D[k, e // 4, e % 4]
-                    continue
-                Fj = F[j]
-                for r in range(3):
-                    f0 = Fj[4 * r, i]
-                    f1 = Fj[4 * r + 1, i]
-                    f2 = Fj[4 * r + 2, i]
-                    f3 = Fj[4 * r + 3, i]
-                    o[4 * r] = f0 * D[k, 0, 0] + f1 * D[k, 1, 0] + f2 * D[k, 2, 0]
-                    o[4 * r + 1] = f0 * D[k, 0, 1] + f1 * D[k, 1, 1] + f2 * D[k, 2, 1]
-                    o[4 * r + 2] = f0 * D[k, 0, 2] + f1 * D[k, 1, 2] + f2 * D[k, 2, 2]
-                    o[4 * r + 3] = f0 * D[k, 0, 3] + f1 * D[k, 1, 3] + f2 * D[k, 2, 3] + f3
-                o[12] = 0.0
-                o[13] = 0.0
-                o[14] = 0.0
-                o[15] = 1.0
+            _poses_row(F, i, lj, D, out[a + i])
     return out
+
+
+@nb.njit(inline="always", **_JIT)
+def _poses_row(F, i, lj, D, row):
+    """The poses (L', 16) of configuration ``i`` of the chunk's frames ``F``, into ``row``."""
+    for k in range(lj.shape[0]):
+        o = row[k]
+        j = lj[k]
+        if j < 0:
+            for e in range(16):
+                o[e] = D[k, e // 4, e % 4]
+            continue
+        Fj = F[j]
+        for r in range(3):
+            f0 = Fj[4 * r, i]
+            f1 = Fj[4 * r + 1, i]
+            f2 = Fj[4 * r + 2, i]
+            f3 = Fj[4 * r + 3, i]
+            o[4 * r] = f0 * D[k, 0, 0] + f1 * D[k, 1, 0] + f2 * D[k, 2, 0]
+            o[4 * r + 1] = f0 * D[k, 0, 1] + f1 * D[k, 1, 1] + f2 * D[k, 2, 1]
+            o[4 * r + 2] = f0 * D[k, 0, 2] + f1 * D[k, 1, 2] + f2 * D[k, 2, 2]
+            o[4 * r + 3] = f0 * D[k, 0, 3] + f1 * D[k, 1, 3] + f2 * D[k, 2, 3] + f3
+        o[12] = 0.0
+        o[13] = 0.0
+        o[14] = 0.0
+        o[15] = 1.0
 
 
 @nb.njit(**_JIT)
@@ -231,6 +235,13 @@ def joint_column(Fj, i, revolute, ox, oy, oz):
     return wx, wy, wz, 0.0, 0.0, 0.0
 
 
+@nb.njit(**_JIT)
+def zero(a):
+    """Fill a 1-D float64 array with zeros (without the GIL, so threads zero their own rows)."""
+    for i in range(a.shape[0]):
+        a[i] = 0.0
+
+
 #: Jacobian references (codes of the compiled kernel)
 REF_WORLD, REF_LOCAL_WORLD_ALIGNED, REF_LOCAL = 0, 1, 2
 
@@ -250,47 +261,53 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
     if k == 0:
         return J
     F, W = _scratch(jint.shape[0], chunk)
-    last = path[k - 1]
     for a in range(0, N, chunk):
         m = min(chunk, N - a)
         _chunk_frames(Q, a, m, path, jint, jflt, F, W)
-        Fl = F[last]
         for i in range(m):
-            Ji = J[a + i]
-            # the link's origin o and rotation R = R_world_L (F_last · D)
-            ox = oy = oz = 0.0
-            if ref != REF_WORLD:
-                ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
-                oy = Fl[4, i] * D[0, 3] + Fl[5, i] * D[1, 3] + Fl[6, i] * D[2, 3] + Fl[7, i]
-                oz = Fl[8, i] * D[0, 3] + Fl[9, i] * D[1, 3] + Fl[10, i] * D[2, 3] + Fl[11, i]
-            r00 = r01 = r02 = r10 = r11 = r12 = r20 = r21 = r22 = 0.0
-            if ref == REF_LOCAL:
-                f00, f01, f02 = Fl[0, i], Fl[1, i], Fl[2, i]
-                f10, f11, f12 = Fl[4, i], Fl[5, i], Fl[6, i]
-                f20, f21, f22 = Fl[8, i], Fl[9, i], Fl[10, i]
-                r00 = f00 * D[0, 0] + f01 * D[1, 0] + f02 * D[2, 0]
-                r01 = f00 * D[0, 1] + f01 * D[1, 1] + f02 * D[2, 1]
-                r02 = f00 * D[0, 2] + f01 * D[1, 2] + f02 * D[2, 2]
-                r10 = f10 * D[0, 0] + f11 * D[1, 0] + f12 * D[2, 0]
-                r11 = f10 * D[0, 1] + f11 * D[1, 1] + f12 * D[2, 1]
-                r12 = f10 * D[0, 2] + f11 * D[1, 2] + f12 * D[2, 2]
-                r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
-                r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
-                r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
-            for jj in range(k):
-                j = path[jj]
-                vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
-                if ref == REF_LOCAL:  # R^T v: component c = (column c of R) · v
-                    vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
-                                  r02 * vx + r12 * vy + r22 * vz)
-                    ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
-                                  r02 * ax + r12 * ay + r22 * az)
-                col = jint[j, J_QINDEX]
-                mu = jflt[j, J_MULT]
-                Ji[0, col] += mu * vx
-                Ji[1, col] += mu * vy
-                Ji[2, col] += mu * vz
-                Ji[3, col] += mu * ax
-                Ji[4, col] += mu * ay
-                Ji[5, col] += mu * az
+            _jacobian_row(F, i, path, jint, jflt, D, ref, J[a + i])
     return J
+
+
+@nb.njit(inline="always", **_JIT)
+def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
+    """Add the Jacobian (6, dof) of configuration ``i`` of the chunk's frames ``F`` into ``Ji``
+    (the link's pose is ``F[path[-1]] · D``)."""
+    k = path.shape[0]
+    Fl = F[path[k - 1]]
+    # the link's origin o and rotation R = R_world_L (F_last · D)
+    ox = oy = oz = 0.0
+    if ref != REF_WORLD:
+        ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
+        oy = Fl[4, i] * D[0, 3] + Fl[5, i] * D[1, 3] + Fl[6, i] * D[2, 3] + Fl[7, i]
+        oz = Fl[8, i] * D[0, 3] + Fl[9, i] * D[1, 3] + Fl[10, i] * D[2, 3] + Fl[11, i]
+    r00 = r01 = r02 = r10 = r11 = r12 = r20 = r21 = r22 = 0.0
+    if ref == REF_LOCAL:
+        f00, f01, f02 = Fl[0, i], Fl[1, i], Fl[2, i]
+        f10, f11, f12 = Fl[4, i], Fl[5, i], Fl[6, i]
+        f20, f21, f22 = Fl[8, i], Fl[9, i], Fl[10, i]
+        r00 = f00 * D[0, 0] + f01 * D[1, 0] + f02 * D[2, 0]
+        r01 = f00 * D[0, 1] + f01 * D[1, 1] + f02 * D[2, 1]
+        r02 = f00 * D[0, 2] + f01 * D[1, 2] + f02 * D[2, 2]
+        r10 = f10 * D[0, 0] + f11 * D[1, 0] + f12 * D[2, 0]
+        r11 = f10 * D[0, 1] + f11 * D[1, 1] + f12 * D[2, 1]
+        r12 = f10 * D[0, 2] + f11 * D[1, 2] + f12 * D[2, 2]
+        r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
+        r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
+        r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
+    for jj in range(k):
+        j = path[jj]
+        vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
+        if ref == REF_LOCAL:  # R^T v: component c = (column c of R) · v
+            vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
+                          r02 * vx + r12 * vy + r22 * vz)
+            ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
+                          r02 * ax + r12 * ay + r22 * az)
+        col = jint[j, J_QINDEX]
+        mu = jflt[j, J_MULT]
+        Ji[0, col] += mu * vx
+        Ji[1, col] += mu * vy
+        Ji[2, col] += mu * vz
+        Ji[3, col] += mu * ax
+        Ji[4, col] += mu * ay
+        Ji[5, col] += mu * az

@@ -53,6 +53,7 @@ from . import compiled
 from . import ik as ik_kernel
 from . import velocity as velocity_kernel
 from .buffers import result_array
+from .parallel import FK_MIN_ROWS, IK_PIECE_ROWS, run_rows
 
 #: Configurations per chunk of the compiled kernels (a chunk's frames stay in L2).
 CHUNK_SIZE = compiled.CHUNK
@@ -96,6 +97,12 @@ def with_tool(D: np.ndarray, tool: np.ndarray | None) -> np.ndarray:
     if tool is None:
         return D
     return np.ascontiguousarray(np.matmul(D, np.asarray(tool, dtype=np.float64)))
+
+
+def _zeroed(J: np.ndarray) -> np.ndarray:
+    """``J`` filled with zeros (in place), for the Jacobian kernel, which adds each joint's column."""
+    compiled.zero(J.reshape(-1))
+    return J
 
 
 @dataclass(frozen=True)
@@ -204,23 +211,26 @@ class Kernel:
             out = result_array((N, n_out, 4, 4))
         if N:
             Q = np.ascontiguousarray(Q, dtype=np.float64)
-            compiled.fk(Q, self._jint, self._jflt, plan.order, plan.lj, with_tool(plan.pose, tool),
-                        out.reshape(N, n_out, 16), max(1, min(chunk, N)))
+            D, out3, c = with_tool(plan.pose, tool), out.reshape(N, n_out, 16), max(1, min(chunk, N))
+            # rows split over threads (kinematics.engine.parallel): each row's bits do not depend on the split
+            run_rows(lambda a, b: compiled.fk(Q[a:b], self._jint, self._jflt, plan.order, plan.lj, D, out3[a:b], c),
+                     N, FK_MIN_ROWS, align=CHUNK_SIZE)
         return out
 
     # ------------------------------------------------------------------ velocities
     def velocity(self, Q: np.ndarray, Qd: np.ndarray, link_idx: np.ndarray | None = None,
                  tool: np.ndarray | None = None, chunk: int = CHUNK_SIZE) -> np.ndarray:
-        """Twists (N, L', 3, 6) of ``link_idx`` (None: all) for q and qdot (N, dof): ``[:, k, c]``
-        in the reference of kernel code ``c`` (``compiled.REF_*``), linear part first
+        """Twists (3, N, L', 6) of ``link_idx`` (None: all) for q and qdot (N, dof): ``[c]`` in the
+        reference of kernel code ``c`` (``compiled.REF_*``), linear part first
         (:func:`kinematics.engine.velocity.velocities`, one pass down the tree)."""
         N = Q.shape[0]
         plan = self._plan_all if link_idx is None else self.plan(link_idx)
-        out = np.zeros((N, plan.lj.shape[0], 3, 6))
-        if N and plan.order.shape[0]:
-            velocity_kernel.velocities(np.ascontiguousarray(Q, dtype=np.float64),
-                                       np.ascontiguousarray(Qd, dtype=np.float64), self._jint, self._jflt,
-                                       plan.order, plan.lj, with_tool(plan.pose, tool), out, max(1, min(chunk, N)))
+        if not (N and plan.order.shape[0]):
+            return np.zeros((3, N, plan.lj.shape[0], 6))
+        out = np.empty((3, N, plan.lj.shape[0], 6))
+        velocity_kernel.velocities(np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(Qd, dtype=np.float64),
+                                   self._jint, self._jflt, plan.order, plan.lj, with_tool(plan.pose, tool), out,
+                                   max(1, min(chunk, N)))
         return out
 
     # ------------------------------------------------------------------ Jacobians
@@ -265,30 +275,43 @@ class Kernel:
         ``local_world_aligned``, its axes those of ``local``).
         """
         N = Q.shape[0]
-        J = np.zeros((N, 6, Q.shape[1]))
+        J = result_array((N, 6, Q.shape[1]))  # zeroed by each thread for its rows (the kernel adds columns)
         path, D = self.path_plan(link_index)
         D = with_tool(D, tool)
         if N and len(path):
             Q = np.ascontiguousarray(Q, dtype=np.float64)
-            compiled.jacobian(Q, self._jint, self._jflt, path, D, _REFERENCE_CODES[reference], J, max(1, min(chunk, N)))
+            code, c = _REFERENCE_CODES[reference], max(1, min(chunk, N))
+            run_rows(lambda a, b: compiled.jacobian(Q[a:b], self._jint, self._jflt, path, D, code, _zeroed(J[a:b]), c),
+                     N, FK_MIN_ROWS, align=CHUNK_SIZE)
+        elif N:
+            J.fill(0.0)
         return J
 
     # ------------------------------------------------------------------ inverse kinematics
     def ik(self, Q: np.ndarray, targets: np.ndarray, link_index: int, lower: np.ndarray, upper: np.ndarray,
            wrap: np.ndarray, angular: np.ndarray, position_only: bool, tol_position: float, tol_rotation: float, max_iterations: int,
-           restarts: int, streams: np.ndarray, damping: float, polish: float, stall: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           restarts: int, streams: np.ndarray, damping: float, polish: float, stall: int,
+           tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Inverse kinematics (:func:`kinematics.engine.ik.solve`) of link ``link_index`` for targets
         ``T_root_link`` (N, 4, 4) from seeds ``Q`` (N, dof): ``(Q, position_error, rotation_error,
-        steps)`` of the best configurations found. Only the path's q columns move."""
+        steps)`` of the best configurations found. Only the path's q columns move. ``tool``:
+        ``T_link_tool`` (4, 4): the targets are the tool frame's poses; the solver is unchanged, it
+        places ``F_last · D`` and the tool only turns the link's constant ``D`` into ``D @ T_link_tool``."""
         path, D = self.path_plan(link_index)
+        D = with_tool(D, tool)
         N = Q.shape[0]
         Q = np.array(Q, dtype=np.float64, order="C")
         perr, rerr, steps = np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.int64)
         cols = self.path_columns(link_index)
         if N == 0 or len(cols) == 0:  # nothing moves the link: the seeds stay (the caller measures them)
             return Q, perr, rerr, steps
-        ik_kernel.solve(Q, np.ascontiguousarray(targets, dtype=np.float64), lower, upper, wrap, angular, cols,
-                        self._jint, self._jflt, path, D, ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE,
-                        tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall, streams, perr,
-                        rerr, steps)
+        targets = np.ascontiguousarray(targets, dtype=np.float64)
+        mode = ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE
+
+        def solve(a, b):  # each target is solved on its own: the split over threads changes no bit
+            ik_kernel.solve(Q[a:b], targets[a:b], lower, upper, wrap, angular, cols, self._jint, self._jflt, path, D,
+                            mode, tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall,
+                            streams[a:b], perr[a:b], rerr[a:b], steps[a:b])
+
+        run_rows(solve, N, min_rows=IK_PIECE_ROWS, piece_rows=IK_PIECE_ROWS)
         return Q, perr, rerr, steps

@@ -47,7 +47,7 @@ from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.reference import Reference
 from ..spatial.transforms import exp_screws
-from .compiled import PRISMATIC, REVOLUTE
+from .compiled import PRISMATIC, REF_LOCAL, REF_LOCAL_WORLD_ALIGNED, REF_WORLD, REVOLUTE
 from .plans import Kernel
 
 
@@ -174,11 +174,13 @@ class PoEModel:
         """What the compiled kernels read of this model (:class:`~kinematics.engine.plans.Kernel`)."""
         return Kernel(self)
 
-    def fk(self, Q: np.ndarray, links: Sequence[str] | None = None, out: np.ndarray | None = None) -> np.ndarray:
+    def fk(self, Q: np.ndarray, links: Sequence[str] | None = None, out: np.ndarray | None = None,
+           tool: np.ndarray | None = None) -> np.ndarray:
         """Poses ``T_world_link`` of ``links`` (default all) for a batch q (N, dof): (N, L, 4, 4).
 
         ``out`` (optional, float64 C-contiguous of that shape) receives the result, so a caller
         can reuse one buffer across calls. Same result as :meth:`fk_reference` (to ~1e-15).
+        ``tool``: ``T_link_tool`` (4, 4); the poses are then ``T_world_link @ T_link_tool``.
         """
         if type(Q) is not np.ndarray or Q.dtype != np.float64:
             Q = np.asarray(Q, dtype=float)
@@ -189,19 +191,39 @@ class PoEModel:
             n_out = len(self.link_names) if idx is None else len(idx)
             if out.shape != (Q.shape[0], n_out, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
                 raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
-        return self.kernel.fk(Q, idx, out=out)
+        return self.kernel.fk(Q, idx, out=out, tool=_tool(tool))
 
-    def jacobian(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
+    def jacobian(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD,
+                 tool: np.ndarray | None = None) -> np.ndarray:
         """Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``.
 
-        Same result as :meth:`jacobian_reference` (to ~1e-15).
+        Same result as :meth:`jacobian_reference` (to ~1e-15). ``tool``: ``T_link_tool`` (4, 4):
+        the Jacobian of the frame at that offset from the link (Pinocchio's frame semantics:
+        ``local_world_aligned`` and ``world`` rows move their reference point with it, ``local``
+        also turns into its axes).
         """
         reference = _reference(reference)
         li = int(self.link_indices([link])[0])
         Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
-        return self.kernel.jacobian(Q, li, reference)
+        return self.kernel.jacobian(Q, li, reference, tool=_tool(tool))
+
+    def velocity(self, Q: np.ndarray, Qd: np.ndarray, links: Sequence[str] | None = None,
+                 tool: np.ndarray | None = None) -> dict[Reference, np.ndarray]:
+        """Twists of ``links`` (default all) for joint values and velocities ``Q``, ``Qd`` (N, dof),
+        one pass down the tree (:mod:`kinematics.engine.velocity`): per reference an (N, L, 6)
+        array, linear part first. ``local_world_aligned`` holds the velocity of the link origin and
+        the angular velocity in world axes. Equal to ``J(q) qdot`` of :meth:`jacobian`.
+        ``tool``: ``T_link_tool`` (4, 4), the frame whose velocity it is (applied to every link).
+        """
+        Q = np.asarray(Q, dtype=float)
+        Qd = np.asarray(Qd, dtype=float)
+        if Q.ndim != 2 or Q.shape[1] != self.dof or Qd.shape != Q.shape:
+            raise KinematicsError(f"q and qdot must have shape (N, {self.dof}), got {Q.shape} and {Qd.shape}")
+        idx = None if links is None else self.link_indices(links)
+        V = self.kernel.velocity(Q, Qd, idx, tool=_tool(tool))
+        return {ref: V[code] for ref, code in _VELOCITY_CODES.items()}
 
     # ------------------------------------------------------------------ FK (reference)
     def fk_reference(self, Q: np.ndarray, links: Sequence[str] | None = None) -> np.ndarray:
@@ -256,6 +278,20 @@ class PoEModel:
             return J
         Rt = np.swapaxes(T_L[:, :3, :3], 1, 2)
         return np.concatenate([Rt @ J[:, :3, :], Rt @ J[:, 3:, :]], axis=1)
+
+
+_VELOCITY_CODES = {Reference.WORLD: REF_WORLD, Reference.LOCAL: REF_LOCAL,
+                   Reference.LOCAL_WORLD_ALIGNED: REF_LOCAL_WORLD_ALIGNED}
+
+
+def _tool(tool) -> np.ndarray | None:
+    """A tool offset ``T_link_tool`` as a (4, 4) float64 array (None stays None)."""
+    if tool is None:
+        return None
+    T = np.asarray(tool, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise KinematicsError(f"a tool offset must be a 4x4 transform, got shape {T.shape}")
+    return T
 
 
 def _reference(reference: str) -> Reference:

@@ -51,6 +51,10 @@ Output formats:
   ``position_error`` (metres), ``rotation_error`` (radians) and ``iterations``.
 - IK, ``npy``: ``q`` only, (N, dof); ``jsonl``: per row ``{"q": {joint: value}, "success",
   "position_error", "rotation_error", "iterations"}``.
+- Velocities (input :class:`StateRows`: joint values then joint velocities per row, CSV header
+  ``<joint>`` and ``<joint>.qdot``), ``csv``: per link ``<link>.vx, .vy, .vz, .wx, .wy, .wz``, the
+  link's twist in one reference (linear part first); ``npy``: (N, L, 6); ``jsonl``: per row
+  ``{"twists": {link: [vx, vy, vz, wx, wy, wz]}}``.
 
 Floats are written so they read back exactly (shortest round-trip repr in text formats).
 The ``.npy`` writer streams: it reserves a fixed-size header, appends each chunk, and
@@ -430,6 +434,82 @@ class JointRows(_RowFile):
         )
 
 
+#: suffix of a joint's velocity column in a CSV header of joint states (``elbow_joint.qdot``)
+QDOT_SUFFIX = ".qdot"
+
+
+class StateRows(_RowFile):
+    """Joint values and joint velocities of a trajectory file, read in chunks (the input of
+    ``kinematics velocity``).
+
+    Iterating yields ``(start, (Q, Qd))``, both (n, dof) float64 in ``model.joint_names`` order.
+    A row holds ``2 dof`` numbers: the joint values, then the joint velocities. A CSV header
+    names the columns in any order: the joint names for q and ``<joint>.qdot`` for qdot. A JSON
+    line is a list of ``2 dof`` numbers or ``{"q": ..., "qdot": ...}`` (each a list in
+    ``joint_names`` order or a ``{joint: value}`` object); ``.npy`` is (N, 2 dof).
+    """
+
+    what = "joint values and velocities"
+    many_columns = "one per joint, then one velocity per joint"
+    max_abs = MAX_ABS_JOINT_VALUE
+
+    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
+        if model.dof == 0:
+            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        self.model = model
+        self.dof = model.dof
+        self.joints = list(model.joint_names)
+        self.names = self.joints + [n + QDOT_SUFFIX for n in self.joints]
+        super().__init__(source, fmt, name, chunk_rows)
+
+    def _label(self, column: str) -> str:
+        if column.endswith(QDOT_SUFFIX) and column[: -len(QDOT_SUFFIX)] in self.model.joint_map:
+            return f"velocity of joint {column[: -len(QDOT_SUFFIX)]!r}"
+        return f"joint {column!r}"
+
+    def _header(self, fields, line_no):
+        self.columns = fields
+        return _column_permutation(fields, self.names, f"{self.name}: line {line_no} (header)", "column",
+                                   f"the columns are the joint names ({', '.join(self.joints)}) and the same "
+                                   f"with {QDOT_SUFFIX!r} appended (the velocities)")
+
+    def _npy_rows(self, arr):
+        if arr.ndim != 2 or arr.shape[1] != 2 * self.dof:
+            raise TrajectoryFileError(
+                f"{self.name}: expected an array of shape (N, {2 * self.dof}) (the {self.dof} joint values, then "
+                f"the {self.dof} joint velocities), got shape {arr.shape}")
+        return arr
+
+    def _one(self, value, where: str, what: str) -> list:
+        names, dof = self.joints, self.dof
+        if isinstance(value, list):
+            if len(value) != dof:
+                raise TrajectoryFileError(f"{where}: {what}: expected {dof} numbers (in the order {names}), got {len(value)}")
+            return value
+        if isinstance(value, dict):
+            unknown = [k for k in value if k not in self.model.joint_map or k not in names]
+            if unknown:
+                raise TrajectoryFileError(f"{where}: {what}: unknown joint name(s): {', '.join(map(str, unknown))}")
+            missing = [n for n in names if n not in value]
+            if missing:
+                raise TrajectoryFileError(f"{where}: {what}: missing value(s) for joint(s): {', '.join(missing)}")
+            return [value[n] for n in names]
+        raise TrajectoryFileError(f"{where}: {what}: expected a list of {dof} numbers or a {{joint: value}} object")
+
+    def _json_row(self, obj, where, line_no):
+        if isinstance(obj, list):
+            if len(obj) != 2 * self.dof:
+                raise TrajectoryFileError(f"{where}: expected {2 * self.dof} numbers (joint values, then joint "
+                                          f"velocities), got {len(obj)}")
+            return self._numbers(obj, where)
+        if isinstance(obj, dict) and set(obj) == {"q", "qdot"}:
+            return self._numbers(self._one(obj["q"], where, "q") + self._one(obj["qdot"], where, "qdot"), where)
+        raise TrajectoryFileError(f"{where}: expected a list of {2 * self.dof} numbers or {{\"q\": ..., \"qdot\": ...}}")
+
+    def _chunk(self, A):
+        return np.ascontiguousarray(A[:, : self.dof]), np.ascontiguousarray(A[:, self.dof:])
+
+
 #: columns of a target pose: position (metres) and orientation quaternion (w first)
 POSE_COLUMNS = ("x", "y", "z", "qw", "qx", "qy", "qz")
 #: columns of a target given as its 4x4 matrix, row-major: ``T<r><c>``
@@ -597,6 +677,11 @@ def open_joint_rows(path, model: RobotModel, fmt: str | None = None, chunk_rows:
     return _open_rows(path, fmt, chunk_rows, lambda src, f, name, n: JointRows(src, model, f, name, n))
 
 
+def open_state_rows(path, model: RobotModel, fmt: str | None = None, chunk_rows: int = CHUNK_ROWS) -> StateRows:
+    """Open a file of joint values and velocities (a path, or a text stream for ``csv``/``jsonl``)."""
+    return _open_rows(path, fmt, chunk_rows, lambda src, f, name, n: StateRows(src, model, f, name, n))
+
+
 def open_target_rows(path, fmt: str | None = None, chunk_rows: int = CHUNK_ROWS) -> TargetRows:
     """Open a file of target poses (a path, or a text stream for ``csv``/``jsonl``) for chunked reading."""
     return _open_rows(path, fmt, chunk_rows, TargetRows)
@@ -611,6 +696,15 @@ def fk_columns(links) -> list[str]:
 def jacobian_columns(dof: int) -> list[str]:
     """CSV column names of Jacobian output: ``J<r><c>`` row-major, r in 0..5, c in 0..dof-1."""
     return [f"J{r}{c}" for r in range(6) for c in range(dof)]
+
+
+#: CSV column suffixes of velocity output, per link: the twist, linear part first
+TWIST_COLUMNS = ("vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def velocity_columns(links) -> list[str]:
+    """CSV column names of velocity output: per link ``<link>.vx ... <link>.wz``."""
+    return [f"{l}.{c}" for l in links for c in TWIST_COLUMNS]
 
 
 #: CSV columns of IK output after the joint values
@@ -637,12 +731,13 @@ class ResultWriter:
     ``kind`` is ``fk`` (chunks (n, L, 4, 4), ``labels`` the link names), ``jacobian``
     (chunks (n, 6, dof), ``labels`` the joint names) or ``ik`` (chunks are IK solutions: objects
     with ``q`` (n, dof), ``success``, ``position_error``, ``rotation_error`` and ``iterations``
-    (n,); ``labels`` the joint names). Use as a context manager: on an exception the partial
+    (n,); ``labels`` the joint names), or ``velocity`` (chunks (n, L, 6) twists, ``labels`` the
+    link names). Use as a context manager: on an exception the partial
     file is removed and the destination left untouched.
     """
 
     def __init__(self, dest, fmt: str, kind: str, labels, name: str | None = None):
-        if kind not in ("fk", "jacobian", "ik"):
+        if kind not in ("fk", "jacobian", "ik", "velocity"):
             raise ValueError(kind)
         self.fmt, self.kind, self.labels = fmt, kind, list(labels)
         self.rows = 0
@@ -673,6 +768,8 @@ class ResultWriter:
         elif self.fmt == "csv":
             if self.kind == "fk":
                 cols = fk_columns(self.labels)
+            elif self.kind == "velocity":
+                cols = velocity_columns(self.labels)
             else:
                 cols = jacobian_columns(len(self.labels)) if self.kind == "jacobian" else ik_columns(self.labels)
             self._fh.write(",".join(cols) + "\n")
@@ -717,6 +814,10 @@ class ResultWriter:
         self.rows += n
 
     def _json_records(self, chunk: np.ndarray):
+        if self.kind == "velocity":
+            for twists in chunk.tolist():
+                yield {"twists": dict(zip(self.labels, twists))}
+            return
         if self.kind == "jacobian":
             for J in chunk:
                 yield {"jacobian": J.tolist()}
@@ -740,7 +841,7 @@ class ResultWriter:
                 tail = self._tail
                 if tail is None:  # no rows: the shape still tells what a row would hold
                     L = len(self.labels)
-                    tail = {"fk": (L, 4, 4), "jacobian": (6, L), "ik": (L,)}[self.kind]
+                    tail = {"fk": (L, 4, 4), "jacobian": (6, L), "ik": (L,), "velocity": (L, 6)}[self.kind]
                 self._fh.seek(0)
                 self._fh.write(npy_header((self.rows,) + tail))
             self._fh.flush()

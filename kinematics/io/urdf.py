@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import re
 import xml.etree.ElementTree as ET
 from typing import Iterable
 
@@ -61,19 +62,109 @@ def _number(text: str | None, what: str, default: float | None, bound: float | N
     return v
 
 
-def _read_xml(data: bytes) -> ET.Element:
+#: namespace given to a prefix the document uses without declaring it (``drake:``, ``xacro:``, ...)
+UNDECLARED_NS = "urn:kinematics:undeclared:"
+#: geometry elements URDF knows (anything else inside <geometry> is a simulator's extension)
+URDF_GEOMETRIES = frozenset({"box", "cylinder", "sphere", "mesh"})
+_PREFIX_USE = re.compile(rb"(?:<|\s)([A-Za-z_][\w.-]*):[A-Za-z_][\w.-]*")
+_PREFIX_DECL = re.compile(rb"xmlns:([A-Za-z_][\w.-]*)\s*=\s*[\"']([^\"']*)[\"']")
+
+
+def _parse(data: bytes) -> ET.Element:
     try:
-        root = safe_fromstring(data, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+        return safe_fromstring(data, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException as exc:
         raise URDFError(
             f"URDF refused: it declares a DTD or entities ({type(exc).__name__}); "
             "entity expansion and external entities are disabled"
         ) from None
-    except ET.ParseError as exc:
-        raise URDFError(f"URDF is not well-formed XML: {exc}") from None
     except (ValueError, UnicodeError) as exc:
         raise URDFError(f"URDF could not be decoded: {exc}") from None
-    return root
+
+
+def _root_start(data: bytes) -> int:
+    """Offset just after the root element's name (comments, PIs and blanks before it skipped), or -1."""
+    i = 0
+    while True:
+        i = data.find(b"<", i)
+        if i < 0:
+            return -1
+        if data.startswith(b"<!--", i):
+            i = data.find(b"-->", i)
+            if i < 0:
+                return -1
+            continue
+        if data.startswith(b"<?", i) or data.startswith(b"<!", i):
+            i = data.find(b">", i)
+            if i < 0:
+                return -1
+            continue
+        m = re.compile(rb"<[A-Za-z_][\w.:-]*").match(data, i)
+        return m.end() if m else -1
+
+
+def _declare_prefixes(data: bytes) -> bytes | None:
+    """``data`` with every prefix it uses but does not declare bound to ``UNDECLARED_NS + prefix`` on the root.
+
+    Files exported for Drake (``drake:``) or written for xacro without ``xmlns:xacro`` use such
+    prefixes; urdfdom (Pinocchio's reader) does not care, an XML parser does ("unbound prefix").
+    """
+    declared = {m.group(1) for m in _PREFIX_DECL.finditer(data)} | {b"xml", b"xmlns"}
+    used = {m.group(1) for m in _PREFIX_USE.finditer(data)} - declared
+    at = _root_start(data)
+    if not used or at < 0:
+        return None
+    decls = b"".join(b' xmlns:%s="%s%s"' % (p, UNDECLARED_NS.encode(), p) for p in sorted(used))
+    return data[:at] + decls + data[at:]
+
+
+def _read_xml(data: bytes) -> ET.Element:
+    try:
+        return _parse(data)
+    except ET.ParseError as exc:
+        if "unbound prefix" in str(exc):
+            fixed = _declare_prefixes(data)
+            if fixed is not None:
+                try:
+                    return _parse(fixed)
+                except ET.ParseError:
+                    pass
+        raise URDFError(f"URDF is not well-formed XML: {exc}") from None
+
+
+def _namespace(tag_or_attr: str) -> str | None:
+    return tag_or_attr[1:].split("}", 1)[0] if tag_or_attr.startswith("{") else None
+
+
+def _prefixed(name: str, prefixes: dict[str, str]) -> str:
+    """``{uri}local`` -> ``prefix:local`` (the prefix the document used), for messages."""
+    ns = _namespace(name)
+    if ns is None:
+        return name
+    local = name.split("}", 1)[1]
+    if ns.startswith(UNDECLARED_NS):
+        return f"{ns[len(UNDECLARED_NS):]}:{local}"
+    return f"{prefixes.get(ns, ns)}:{local}"
+
+
+def _is_xacro_namespace(ns: str | None) -> bool:
+    return ns is not None and "xacro" in ns.lower()
+
+
+def xacro_use(root: ET.Element) -> str | None:
+    """What makes the document xacro rather than URDF (an element or attribute in the xacro
+    namespace, a ``${...}`` expression or ``$(...)`` substitution), or None. ``xmlns:xacro`` declared but unused is URDF."""
+    for el in root.iter():
+        if not isinstance(el.tag, str):
+            continue
+        if _is_xacro_namespace(_namespace(el.tag)):
+            return f"element <xacro:{el.tag.split('}', 1)[1]}>"
+        for name, value in el.attrib.items():
+            if _is_xacro_namespace(_namespace(name)):
+                return f"attribute xacro:{name.split('}', 1)[1]} on <{el.tag}>"
+            if "${" in value or "$(" in value:
+                return f"the expression {value[:60]!r} in <{el.tag} {name}>"
+    return None
 
 
 def _check_document(root: ET.Element, max_links: int) -> None:
@@ -152,6 +243,92 @@ def _check_document(root: ET.Element, max_links: int) -> None:
                 _numbers(o.get("rpy"), 3, f"link {el.get('name')!r} <visual><origin rpy>", "0 0 0", MAX_ABS_COORDINATE)
 
 
+#: elements a URDF <robot> may hold (others are simulator or tool extensions, ignored with a warning)
+URDF_TOP_LEVEL = frozenset({"link", "joint", "material", "transmission", "gazebo", "sensor"})
+#: the extension blocks the URDF specification defines, left out silently (no kinematics in them)
+URDF_EXTENSIONS = frozenset({"transmission", "gazebo", "sensor"})
+
+
+def _names(items: list[str], limit: int = 6) -> str:
+    uniq = list(dict.fromkeys(items))
+    return ", ".join(uniq[:limit]) + (f" and {len(uniq) - limit} more" if len(uniq) > limit else "")
+
+
+def _sanitise(root: ET.Element, data: bytes) -> tuple[bytes, list[str]]:
+    """The document yourdfpy is given, and a warning per kind of thing left out of it.
+
+    Left out: elements and attributes in a namespace (``drake:``, ``gazebo:``, ... : extensions
+    of other tools), top-level elements URDF does not define, ``<visual>``/``<collision>`` whose
+    geometry is not URDF's (pybullet's ``<plane>``, ``<cdf>``, ...), and -- silently, as this
+    library never uses them -- every ``<collision>`` and ``<inertial>``. None changes the kinematics.
+    """
+    prefixes = {m.group(2).decode(errors="replace"): m.group(1).decode() for m in _PREFIX_DECL.finditer(data)}
+    warnings: list[str] = []
+    for child in list(root):  # URDF's own extension blocks: their content is for simulators and drivers
+        if child.tag in URDF_EXTENSIONS:
+            root.remove(child)
+    foreign_el: list[str] = []
+    foreign_attr: list[str] = []
+    stack = [root]
+    while stack:
+        parent = stack.pop()
+        for child in list(parent):
+            if not isinstance(child.tag, str):
+                parent.remove(child)
+            elif _namespace(child.tag) is not None:
+                foreign_el.append(f"<{_prefixed(child.tag, prefixes)}>")
+                parent.remove(child)
+            else:
+                stack.append(child)
+    for el in root.iter():
+        for name in [a for a in el.attrib if _namespace(a) is not None]:
+            if not name.startswith("{http://www.w3.org/XML/1998/namespace}"):
+                foreign_attr.append(f"{_prefixed(name, prefixes)} on <{el.tag}>")
+            del el.attrib[name]
+    if foreign_el or foreign_attr:
+        parts = []
+        if foreign_el:
+            parts.append(f"{len(foreign_el)} element(s) ({_names(foreign_el)})")
+        if foreign_attr:
+            parts.append(f"{len(foreign_attr)} attribute(s) ({_names(foreign_attr)})")
+        warnings.append(f"ignored {' and '.join(parts)} of other tools' namespaces: they do not change the kinematics")
+    unknown_top = [child for child in root if child.tag not in URDF_TOP_LEVEL]
+    if unknown_top:
+        warnings.append(f"ignored {len(unknown_top)} element(s) that URDF does not define "
+                        f"({_names([f'<{c.tag}>' for c in unknown_top])}): they do not change the kinematics")
+        for child in unknown_top:
+            root.remove(child)
+    odd_geometry: list[str] = []
+    odd_children: list[str] = []
+    for link in root.findall("link"):
+        lname = link.get("name")
+        for kind in ("visual", "collision"):
+            for el in link.findall(kind):
+                geom = el.find("geometry")
+                shape = geom[0].tag if geom is not None and len(geom) else None
+                if shape not in URDF_GEOMETRIES:
+                    odd_geometry.append(f"link {lname!r} <{kind}>" + (f" <{shape}>" if shape else " without geometry"))
+                    link.remove(el)
+                elif kind == "collision":
+                    link.remove(el)
+        for el in link.findall("inertial"):
+            link.remove(el)
+        for el in list(link):
+            if el.tag not in ("visual",):
+                odd_children.append(f"link {lname!r} <{el.tag}>")
+                link.remove(el)
+    if odd_geometry:
+        warnings.append(f"ignored {len(odd_geometry)} <visual>/<collision> element(s) whose geometry is not URDF's "
+                        f"({_names(odd_geometry)}): they do not change the kinematics")
+    if odd_children:
+        warnings.append(f"ignored {len(odd_children)} element(s) inside links that URDF does not define "
+                        f"({_names(odd_children)}): they do not change the kinematics")
+    try:
+        return ET.tostring(root, encoding="utf-8"), warnings
+    except RecursionError:
+        raise URDFError("URDF is nested too deeply to be read") from None
+
+
 def _check_tree(link_names: Iterable[str], joints: list[Joint]) -> str:
     """Check that links and joints form one tree; return its root link."""
     link_names = list(link_names)
@@ -217,13 +394,21 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
     """
     data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
     root_el = _read_xml(data)
+    xacro = xacro_use(root_el)
+    if xacro is not None:
+        raise URDFError(
+            f"this is a xacro file, not URDF (it uses the {xacro}): expand it first -- load it as xacro "
+            "(`kinematics fk --xacro FILE`, kinematics.io.xacro.load_xacro, or POST it to /models, "
+            "which expands it); it is never read as a URDF with its macros left out"
+        )
     _check_document(root_el, max_links)
+    cleaned, ignored = _sanitise(root_el, data)
 
     import yourdfpy  # heavy import, kept local
 
     try:
         urdf = yourdfpy.URDF.load(
-            io.BytesIO(data),
+            io.BytesIO(cleaned),
             build_scene_graph=False,
             build_collision_scene_graph=False,
             load_meshes=False,
@@ -233,7 +418,7 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
         raise URDFError(f"URDF could not be parsed: {type(exc).__name__}: {exc}") from None
     robot = urdf.robot
 
-    warnings: list[str] = []
+    warnings: list[str] = list(ignored)
     joint_names_all = {j.name for j in robot.joints}
     joints: list[Joint] = []
     for yj in robot.joints:

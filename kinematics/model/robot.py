@@ -88,6 +88,8 @@ class RobotModel:
         urdf: that URDF text.
         warnings: things a user should know (e.g. a mimic naming a joint the file lacks).
         visuals: primitive visual geometry per link name.
+        format: what the description was written in: ``urdf``, ``xacro`` (expanded to ``urdf``),
+            ``mjcf`` (turned into ``urdf``), ``dh``; the ``urdf`` text is always URDF.
     """
 
     name: str
@@ -99,6 +101,7 @@ class RobotModel:
     urdf: str = field(repr=False)
     warnings: tuple[str, ...] = ()
     visuals: Mapping[str, tuple[Visual, ...]] = field(default_factory=dict, repr=False)
+    format: str = "urdf"
 
     # -- derived views (computed once, cached) --------------------------------------
     @property

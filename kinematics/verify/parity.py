@@ -1,8 +1,9 @@
 """Catalogue-wide parity with Pinocchio (what ``kinematics check`` and the tests run).
 
 For each model: random configurations inside the limits (continuous joints drawn beyond
-+-pi), FK of every link and the three Jacobians of every leaf link, compared with
-Pinocchio. A model Pinocchio (or our parser) refuses is reported as ``refused`` with the
++-pi), FK of every link, the three Jacobians of every leaf link, and the velocity of every
+link in the three references (random joint velocities in [-1, 1]; Pinocchio's
+``forwardKinematics(q, v)`` and ``getFrameVelocity``), compared with Pinocchio. A model Pinocchio (or our parser) refuses is reported as ``refused`` with the
 error message and not counted in the total.
 """
 
@@ -15,7 +16,7 @@ import numpy as np
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..tolerances import AGREEMENT_TOLERANCE
-from .pinocchio import compare_fk, compare_jacobian, reference_for
+from .pinocchio import compare_fk, compare_jacobian, compare_velocity, reference_for
 
 
 @dataclass(frozen=True)
@@ -27,11 +28,12 @@ class ParityResult:
     position_error: float = 0.0
     rotation_error: float = 0.0
     jacobian_error: float = 0.0
+    velocity_error: float = 0.0
     message: str = ""
 
     @property
     def worst(self) -> float:
-        return max(self.position_error, self.rotation_error, self.jacobian_error)
+        return max(self.position_error, self.rotation_error, self.jacobian_error, self.velocity_error)
 
 
 def check_model(model_id: str, load, samples: int = 5, seed: int = 0, tolerance: float = AGREEMENT_TOLERANCE) -> ParityResult:
@@ -45,11 +47,14 @@ def check_model(model_id: str, load, samples: int = 5, seed: int = 0, tolerance:
     Q = model.sample_configurations(samples, rng)
     fk = compare_fk(model, Q)
     jac = max((compare_jacobian(model, Q, leaf) for leaf in model.leaf_links), default=0.0)
+    Qd = rng.uniform(-1.0, 1.0, Q.shape)
+    vel = compare_velocity(model, Q, Qd)
     res = ParityResult(
-        model_id, "ok", model.dof, len(model.links), fk.max_position_error, fk.max_rotation_error, jac
+        model_id, "ok", model.dof, len(model.links), fk.max_position_error, fk.max_rotation_error, jac, vel
     )
     if not res.worst <= tolerance:
-        res = ParityResult(model_id, "FAIL", res.dof, res.links, res.position_error, res.rotation_error, res.jacobian_error)
+        res = ParityResult(model_id, "FAIL", res.dof, res.links, res.position_error, res.rotation_error,
+                           res.jacobian_error, res.velocity_error)
     return res
 
 

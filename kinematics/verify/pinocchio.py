@@ -121,6 +121,21 @@ class PinocchioReference:
                 J[:, m.q_index[r[0]]] += r[1] * Jp[:, idx_v]
         return J
 
+    def to_pinocchio_v(self, qdot: np.ndarray) -> np.ndarray:
+        """Our joint velocities (dof,) -> Pinocchio's velocity vector (nv,): one entry per joint with
+        its own q entry (a continuous joint has one velocity, not two); a mimic joint Pinocchio has
+        as a joint of its own moves with ``multiplier * qdot[leader]``."""
+        m = self.model
+        values = {n: qdot[i] for i, n in enumerate(m.joint_names)}
+        for j in m.moving_joints:
+            r = m.resolve_mimic(j)
+            if r is not None:
+                values[j.name] = r[1] * values[r[0]]
+        v = np.zeros(self.pin_model.nv)
+        for _, idx_v, _, name in self.q_map:
+            v[idx_v] = values[name]
+        return v
+
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """Every link's pose for one configuration: {link: 4x4}."""
         d = self.data()
@@ -135,6 +150,50 @@ class PinocchioReference:
         # eigenpy hands a 6x1 Jacobian (one-DOF model) back as shape (6,): restore the column
         return self._fold_columns(np.asarray(Jp).reshape(6, -1))
 
+    def frames(self, links, tool: np.ndarray | None = None) -> "Frames":
+        """Pinocchio frames of ``links`` (their BODY frames), or, with a tool offset ``T_link_tool``,
+        of an operational frame added on each link at that offset (``pin.Frame(..., OP_FRAME)``,
+        parent joint and frame those of the link's BODY frame), in a copy of the model."""
+        links = list(links)
+        if tool is None:
+            return Frames(self, self.pin_model, self.data(), {l: self.frame_ids[l] for l in links})
+        pm = pin.Model(self.pin_model)
+        placement = pin.SE3(np.asarray(tool, dtype=float))
+        ids = {}
+        for link in links:
+            body = pm.frames[self.frame_ids[link]]
+            frame = pin.Frame(f"{link}__tool", body.parentJoint, self.frame_ids[link], body.placement * placement,
+                              pin.FrameType.OP_FRAME)
+            ids[link] = pm.addFrame(frame, False)
+        return Frames(self, pm, pm.createData(), ids)
+
+
+class Frames:
+    """Some frames of a (possibly extended) Pinocchio model, with a :class:`pin.Data` of it
+    (one thread's: :meth:`PinocchioReference.frames` builds it per call)."""
+
+    def __init__(self, ref: "PinocchioReference", pin_model, data, ids: dict[str, int]):
+        self.ref, self.pin_model, self.data, self.ids = ref, pin_model, data, ids
+
+    def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """{link: 4x4 pose of its frame} for one configuration."""
+        pin.framesForwardKinematics(self.pin_model, self.data, self.ref.to_pinocchio_q(q))
+        return {l: self.data.oMf[fid].homogeneous.copy() for l, fid in self.ids.items()}
+
+    def jacobian(self, q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
+        """Jacobian (6, dof) of the frame of ``link`` (linear rows first) in ``reference``."""
+        Jp = pin.computeFrameJacobian(self.pin_model, self.data, self.ref.to_pinocchio_q(q), self.ids[link],
+                                      _REFERENCE_FRAMES[reference])
+        return self.ref._fold_columns(np.asarray(Jp).reshape(6, -1))
+
+    def velocities(self, q: np.ndarray, qdot: np.ndarray, references=REFERENCES) -> dict[str, dict[str, np.ndarray]]:
+        """{link: {reference: twist (6,), linear first}} of every frame for one configuration and
+        its joint velocities (``pin.forwardKinematics(model, data, q, v)`` then
+        ``pin.getFrameVelocity``)."""
+        pin.forwardKinematics(self.pin_model, self.data, self.ref.to_pinocchio_q(q), self.ref.to_pinocchio_v(qdot))
+        return {l: {r: pin.getFrameVelocity(self.pin_model, self.data, fid, _REFERENCE_FRAMES[r]).vector.copy()
+                    for r in references} for l, fid in self.ids.items()}
+
 
 _references = PerModel(PinocchioReference)
 
@@ -144,16 +203,19 @@ def reference_for(model: RobotModel) -> PinocchioReference:
     return _references(model)
 
 
-def compare_fk(model: RobotModel, Q: np.ndarray, links=None, poses: np.ndarray | None = None) -> Deviation:
-    """Largest deviation of our FK of ``links`` (default all) from Pinocchio's over a batch Q."""
+def compare_fk(model: RobotModel, Q: np.ndarray, links=None, poses: np.ndarray | None = None,
+               tool: np.ndarray | None = None) -> Deviation:
+    """Largest deviation of our FK of ``links`` (default all) from Pinocchio's over a batch Q
+    (``tool``: of the frames at that offset ``T_link_tool`` from each link)."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     poe = compile_model(model)
     links = list(model.links) if links is None else list(links)
-    ours = poe.fk(Q, links) if poses is None else poses
+    ours = poe.fk(Q, links, tool=tool) if poses is None else poses
     ref = reference_for(model)
+    frames = ref.frames(links, tool) if tool is not None else ref
     pos_err = rot_err = 0.0
     for n, q in enumerate(Q):
-        theirs = ref.poses(q)
+        theirs = frames.poses(q)
         for k, l in enumerate(links):
             diff = ours[n, k] - theirs[l]
             pos_err = max(pos_err, float(np.max(np.abs(diff[:3, 3]))))
@@ -161,16 +223,39 @@ def compare_fk(model: RobotModel, Q: np.ndarray, links=None, poses: np.ndarray |
     return Deviation(pos_err, rot_err)
 
 
-def compare_jacobian(model: RobotModel, Q: np.ndarray, link: str, references=REFERENCES, jacobians: dict | None = None) -> float:
-    """Largest entry-wise deviation of our Jacobians of ``link`` from Pinocchio's."""
+def compare_jacobian(model: RobotModel, Q: np.ndarray, link: str, references=REFERENCES, jacobians: dict | None = None,
+                     tool: np.ndarray | None = None) -> float:
+    """Largest entry-wise deviation of our Jacobians of ``link`` (``tool``: of the frame at that
+    offset from it) from Pinocchio's."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     poe = compile_model(model)
     ref = reference_for(model)
+    frames = ref.frames([link], tool) if tool is not None else ref
     err = 0.0
     for reference in references:
-        ours = poe.jacobian(Q, link, reference) if jacobians is None else jacobians[reference]
+        ours = poe.jacobian(Q, link, reference, tool=tool) if jacobians is None else jacobians[reference]
         for n, q in enumerate(Q):
-            theirs = ref.jacobian(q, link, reference)
+            theirs = frames.jacobian(q, link, reference)
             if theirs.size:
                 err = max(err, float(np.max(np.abs(ours[n] - theirs))))
+    return err
+
+
+def compare_velocity(model: RobotModel, Q: np.ndarray, Qd: np.ndarray, links=None, references=REFERENCES,
+                     twists: dict | None = None, tool: np.ndarray | None = None) -> float:
+    """Largest entry-wise deviation of our link twists (``twists``: ``{reference: (N, L, 6)}``, else
+    computed) from Pinocchio's ``getFrameVelocity`` after ``forwardKinematics(model, data, q, v)``,
+    over a batch of joint values ``Q`` and velocities ``Qd`` (N, dof)."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    Qd = np.atleast_2d(np.asarray(Qd, dtype=float))
+    links = list(model.links) if links is None else list(links)
+    if twists is None:
+        twists = compile_model(model).velocity(Q, Qd, links, tool=tool)
+    frames = reference_for(model).frames(links, tool)
+    err = 0.0
+    for n in range(Q.shape[0]):
+        theirs = frames.velocities(Q[n], Qd[n], references)
+        for k, link in enumerate(links):
+            for reference in references:
+                err = max(err, float(np.max(np.abs(twists[reference][n, k] - theirs[link][reference]))))
     return err

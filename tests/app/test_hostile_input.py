@@ -32,7 +32,10 @@ ARM = (CORPUS / "fixture_arm.urdf").read_bytes()
 ARM_Q = [0.3, -0.7, 0.2]
 
 #: limits of the "small" app used by the over-the-limit items
-SMALL_LIMITS = {"max_model_bytes": 2048, "max_request_bytes": 8192, "max_batch": 5, "max_links": 5}
+SMALL_LIMITS = {"max_model_bytes": 2048, "max_request_bytes": 8192, "max_batch": 5, "max_links": 5,
+                "max_archive_bytes": 65536, "max_archive_extracted_bytes": 65536, "max_archive_members": 50}
+#: the xacro sandbox of the main app: bombs stop within seconds
+MAIN_LIMITS = {"xacro_cpu_seconds": 2, "xacro_memory_bytes": 512 * 1024 * 1024}
 #: peak Python heap of the whole request while refusing an XML bomb
 BOMB_PEAK_BYTES = 8 * 1024 * 1024
 
@@ -88,7 +91,7 @@ def _make_app(tmp_path_factory, **limits) -> tuple[TestClient, str]:
 
 @pytest.fixture(scope="module")
 def apps(tmp_path_factory):
-    main_client, main_id = _make_app(tmp_path_factory)
+    main_client, main_id = _make_app(tmp_path_factory, **MAIN_LIMITS)
     small_client, small_id = _make_app(tmp_path_factory, **SMALL_LIMITS)
     yield {"main": _App(main_client, main_id), "small": _App(small_client, small_id)}
     main_client.__exit__(None, None, None)
@@ -278,3 +281,35 @@ def test_path_like_robot_name_stays_a_name(apps):
 def test_corpus_size():
     total = sum(len(MANIFEST[k]) for k in ("urdf", "dh", "requests"))
     assert total >= 30
+
+
+# ---------------------------------------------------------------- descriptions: xacro, MJCF, archives
+from tests.corpus import archives  # noqa: E402
+
+DESCRIPTIONS = MANIFEST["descriptions"]
+
+
+def _desc_ids(items):
+    return [Path(i["file"]).stem if "file" in i else i["generate"] for i in items]
+
+
+def _description_body(item) -> tuple[bytes, str]:
+    if "generate" in item:
+        return archives.build(item["generate"]), archives.media_type(item["generate"])
+    data = (CORPUS / item["file"]).read_bytes()
+    return data, "application/octet-stream" if item["file"].endswith(".bin") else "application/xml"
+
+
+@pytest.mark.parametrize("item", DESCRIPTIONS, ids=_desc_ids(DESCRIPTIONS))
+def test_corpus_description_upload(apps, item):
+    """Each hostile description: a clean 4xx naming the problem, nothing read, the service alive."""
+    app = apps[item.get("app", "main")]
+    data, content_type = _description_body(item)
+    r = app.client.post("/models", content=data, headers={"Content-Type": content_type})
+    assert_problem(r, item["status"], item["contains"])
+    if "secret" in item:
+        assert item["secret"] not in r.text
+    if "file" in item and content_type == "application/xml":  # the JSON form too
+        r = app.client.post("/models", json={"urdf": data.decode("utf-8"), "name": "corpus"})
+        assert_problem(r, item["status"], item["contains"])
+    app.assert_healthy()

@@ -91,3 +91,19 @@ def test_good_input_still_works(q_csv, tmp_path, capsys):
     code, err = _run(["fk", "--urdf", ARM, q_csv, "-o", out], capsys)
     assert code == 0, err
     assert out.read_text().count("\n") == 2
+
+
+DESCRIPTIONS = [i for i in MANIFEST.get("descriptions", []) if "file" in i and i["status"] != 413
+                and not i["file"].endswith(".bin")]
+
+
+@pytest.mark.parametrize("item", DESCRIPTIONS, ids=[Path(i["file"]).stem for i in DESCRIPTIONS])
+def test_corpus_description(item, q_csv, tmp_path, capsys):
+    """xacro files through --xacro (the sandbox may read only their directory), MJCF through --mjcf."""
+    out = tmp_path / "out.csv"
+    option = "--mjcf" if item["file"].endswith(".xml") else "--xacro"
+    code, err = _run(["fk", option, CORPUS / item["file"], q_csv, "-o", out], capsys)
+    assert code == EXIT_MODEL
+    assert item["contains"].lower() in err.lower(), err
+    assert item.get("secret", "\0") not in err
+    assert not out.exists()

@@ -234,7 +234,7 @@ def test_verify_fails_on_a_wrong_result(tmp_path, Q, capsys, monkeypatch):
     from kinematics.engine.poe import PoEModel
 
     real_fk = PoEModel.fk
-    monkeypatch.setattr(PoEModel, "fk", lambda self, Q, links=None, out=None: real_fk(self, Q, links) + 1e-6)
+    monkeypatch.setattr(PoEModel, "fk", lambda self, Q, links=None, out=None, tool=None: real_fk(self, Q, links, tool=tool) + 1e-6)
     src = tmp_path / "q.npy"
     np.save(src, Q)
     code, _, err = run(["fk", "--model", "ur5", src, "-o", tmp_path / "T.csv", "--verify", "5"], capsys)

@@ -281,3 +281,47 @@ def test_corpus_dh_table_is_refused_naming_the_field(item):
     with pytest.raises(getattr(kerrors, item["error"])) as info:
         dh.table_from_dict(table)
     assert item["contains"].lower() in str(info.value).lower()
+
+
+# ---------------------------------------------------------------- descriptions: xacro, MJCF, archives
+from kinematics.io.archive import ArchiveLimits  # noqa: E402
+from kinematics.io.description import load_description  # noqa: E402
+from kinematics.io.xacro import SandboxLimits  # noqa: E402
+from tests.corpus import archives  # noqa: E402
+
+DESCRIPTIONS = MANIFEST["descriptions"]
+#: the sandbox's limits in these tests (the service's test app uses the same)
+TEST_XACRO_LIMITS = SandboxLimits(cpu_seconds=2, memory_bytes=512 * 1024 * 1024, wall_seconds=20)
+#: the archive limits of the "small" app
+SMALL_ARCHIVE_LIMITS = ArchiveLimits(max_members=50, max_bytes=archives.SMALL_ARCHIVE_BYTES,
+                                     max_stream_bytes=8 * archives.SMALL_ARCHIVE_BYTES)
+
+
+def description_bytes(item) -> bytes:
+    return (CORPUS / item["file"]).read_bytes() if "file" in item else archives.build(item["generate"])
+
+
+def _desc_ids(items):
+    return [Path(i["file"]).stem if "file" in i else i["generate"] for i in items]
+
+
+@pytest.mark.parametrize("item", DESCRIPTIONS, ids=_desc_ids(DESCRIPTIONS))
+def test_corpus_description_is_refused_naming_the_problem(item):
+    data = description_bytes(item)
+    limits = SMALL_ARCHIVE_LIMITS if item.get("app") == "small" else ArchiveLimits()
+    pwned = Path("/tmp/pwned")
+    pwned.unlink(missing_ok=True)
+    with audited() as audit, pytest.raises(kerrors.URDFError) as info:
+        load_description(data, xacro_limits=TEST_XACRO_LIMITS, archive_limits=limits)
+    assert type(info.value) is getattr(kerrors, item["error"]), repr(info.value)
+    assert item["contains"].lower() in str(info.value).lower(), str(info.value)
+    if "secret" in item:
+        assert item["secret"] not in str(info.value)
+    assert not [a for e, a in audit.events if e == "open" and "passwd" in str(a)]  # this process read nothing
+    assert not pwned.exists()  # and the sandbox ran no command
+
+
+def test_every_description_file_is_listed():
+    listed = {i["file"] for i in DESCRIPTIONS if "file" in i}
+    assert listed == {str(p.relative_to(CORPUS)) for p in CORPUS.glob("descriptions/*")}
+    assert {i["generate"] for i in DESCRIPTIONS if "generate" in i} == set(archives.BUILDERS)

@@ -28,6 +28,11 @@ const API_KEY_STORAGE = "kinematics-api-key";  // sessionStorage: forgotten when
 const IK_THROTTLE_MS = 100;               // while dragging: at most one IK request per this, one in flight
 const IK_DRAG_RESTARTS = 0;               // while dragging: follow from the current q only (smooth, fast)
 const IK_TARGET_OPACITY = 0.45;           // the target's ghost triad
+const FIT_DIRECTION = [1.0, -1.3, 0.8];   // the view direction (from the model) of a freshly loaded model
+const FIT_MARGIN = 1.15;                  // the bounding sphere fills 1 / FIT_MARGIN of the narrower field of view
+const CLOUD_POINT_FRACTION = 0.02;        // workspace point size / model size
+const CLOUD_COLOR_QUANTILE = 0.95;        // the colour scale tops out at this quantile of the manipulability
+const VELOCITY_ARROW_FRACTION = 0.33;     // the longest velocity arrow / model size
 
 // Test hook (tests/app/test_viewer.py reads it); also handy from the browser console.
 const state = {
@@ -43,6 +48,14 @@ const state = {
   dhBuilt: null,
   dhBuilds: 0,
   renders: 0,
+  fits: 0,
+  workspace: null,    // {link, samples, points, maxManipulability}
+  wsRequests: 0,
+  wsResponses: 0,
+  velocityRequests: 0,
+  velocityResponses: 0,
+  velocityArrows: 0,  // arrows drawn (links whose origin moves)
+  lastVelocity: null, // {q, qdot, linear: {link: [vx, vy, vz]}}
   ikEnabled: false,
   ikRequests: 0,
   ikResponses: 0,
@@ -57,8 +70,9 @@ const $ = (id) => document.getElementById(id);
 // ---------------------------------------------------------------------------- API
 class ApiError extends Error {}
 
-async function api(path, { method = "GET", body, text = false } = {}) {
+async function api(path, { method = "GET", body, text = false, binary = null } = {}) {
   const init = { method, headers: {} };
+  if (binary) init.headers.Accept = binary;
   const key = sessionStorage.getItem(API_KEY_STORAGE);
   if (key) init.headers["X-API-Key"] = key;
   if (body !== undefined) {
@@ -83,6 +97,7 @@ async function api(path, { method = "GET", body, text = false } = {}) {
     } catch (_) { /* not JSON: keep the status line */ }
     throw new ApiError(`${method} ${path}: ${detail}`);
   }
+  if (binary) return response.arrayBuffer();
   return text ? response.text() : response.json();
 }
 
@@ -122,6 +137,7 @@ sun.position.set(2, -3, 5);
 scene.add(sun);
 
 let grid = null;                          // ground grid in the world xy plane
+let cloud = null;                         // THREE.Points: the sampled workspace of the selected link
 let robot = null;                         // THREE.Group holding the current model's objects
 
 let renderQueued = false;
@@ -309,22 +325,51 @@ function buildRobot(info, visuals, poses) {
   grid.rotateX(Math.PI / 2);             // GridHelper lies in xz; the ground is xy
   scene.add(grid);
 
-  // Camera: a three-quarter view from above, aimed between the model's middle and its root,
-  // far enough to keep in view what the links can reach (their largest distance from the
-  // root) when the joints move.
-  const rootPosition = new THREE.Vector3(...poses[info.root].position);
-  let reach = 0;
-  for (const link of info.links) reach = Math.max(reach, rootPosition.distanceTo(new THREE.Vector3(...poses[link].position)));
-  reach = Math.max(reach, modelSize / 2, 0.1);
-  const center = box.getCenter(new THREE.Vector3()).lerp(rootPosition, 0.5);
-  const radius = reach + 0.5 * center.distanceTo(rootPosition);
-  const distance = radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2)) * 0.8;
-  camera.near = radius / 500;
-  camera.far = radius * 200;
-  camera.position.copy(center).add(new THREE.Vector3(1.0, -1.3, 0.8).normalize().multiplyScalar(distance));
+  // The camera is placed by fitCamera() once the poses are applied (loadModel).
+}
+
+/** The bounding sphere of the model at its current pose: every link origin and every drawn
+ * primitive visual (and the workspace cloud while it is shown). */
+function modelSphere() {
+  const box = new THREE.Box3();
+  if (lastPoses) for (const pose of Object.values(lastPoses)) box.expandByPoint(new THREE.Vector3(...pose.position));
+  if (robot) {
+    robot.updateMatrixWorld(true);
+    for (const group of Object.values(linkGroups)) {
+      for (const child of group.children) if (child.isMesh) box.expandByObject(child);
+    }
+  }
+  if (cloud && cloud.visible) {
+    cloud.geometry.computeBoundingBox();
+    box.union(cloud.geometry.boundingBox);
+  }
+  const sphere = new THREE.Sphere();
+  if (box.isEmpty()) return new THREE.Sphere(new THREE.Vector3(), 0.5);
+  box.getBoundingSphere(sphere);
+  sphere.radius = Math.max(sphere.radius, 0.05);
+  return sphere;
+}
+
+/** Frame the whole model: its bounding sphere (current pose) fills the narrower of the two fields
+ * of view (vertical, or horizontal on a narrow canvas), seen from `direction` (default: the current
+ * view direction, or a three-quarter view from above for a fresh model). */
+function fitCamera(direction = null) {
+  const sphere = modelSphere();
+  const dir = direction
+    ? new THREE.Vector3(...direction).normalize()
+    : camera.position.clone().sub(controls.target).normalize();
+  if (!(dir.lengthSq() > 0.5)) dir.set(...FIT_DIRECTION).normalize();
+  const vHalf = THREE.MathUtils.degToRad(camera.fov / 2);
+  const hHalf = Math.atan(Math.tan(vHalf) * camera.aspect);
+  const distance = FIT_MARGIN * sphere.radius / Math.sin(Math.min(vHalf, hHalf));
+  camera.near = Math.min(Math.max(distance - 4 * sphere.radius, distance / 1000), sphere.radius / 50);
+  camera.far = distance + 200 * sphere.radius;
+  camera.position.copy(sphere.center).addScaledVector(dir, distance);
   camera.updateProjectionMatrix();
-  controls.target.copy(center);
+  controls.target.copy(sphere.center);
   controls.update();
+  state.fits += 1;
+  requestRender();
 }
 
 /** The smallest of 1, 2, 5 x 10^k not below x. */
@@ -485,6 +530,7 @@ async function runFk() {
       if (ik.enabled && !gizmo.dragging && !ikBusy()) placeTargetAtLink();
     }
     showOutOfLimits(answer.out_of_limits || []);
+    requestVelocity();
     await showSelectedPose(q);
   } catch (err) {
     showError(err);
@@ -760,6 +806,45 @@ window.viewerTest = {
     return { q: currentQ(), status: state.ikStatus, last: state.ikLast };
   },
   whenSettled: async () => { await whenSettled(); return true; },
+  /** Canvas (CSS pixel) coordinates of every link origin as the camera sees it now, and the
+   * canvas size: {width, height, points: {link: [x, y, depth]}} (depth in (-1, 1) when between
+   * the near and far planes). */
+  projectLinks() {
+    camera.updateMatrixWorld();
+    const rect = renderer.domElement.getBoundingClientRect();
+    const points = {};
+    for (const [link, pose] of Object.entries(lastPoses || {})) {
+      const p = new THREE.Vector3(...pose.position).project(camera);
+      points[link] = [(p.x + 1) / 2 * rect.width, (1 - p.y) / 2 * rect.height, p.z];
+    }
+    return { width: rect.width, height: rect.height, points };
+  },
+  fit: () => { fitCamera(); return state.fits; },
+  /** Move the camera (a zoom or orbit by hand), e.g. to test the fit button. */
+  moveCamera(position, target) {
+    camera.position.set(...position);
+    controls.target.set(...target);
+    controls.update();
+    requestRender();
+  },
+  async sampleWorkspace(samples = 5000) {
+    $("ws-samples").value = String(samples);
+    const before = state.wsResponses;
+    sampleWorkspace();
+    while (state.wsResponses === before) await new Promise((resolve) => setTimeout(resolve, 20));
+    return state.workspace;
+  },
+  /** Set the joint velocities and wait for their arrows. */
+  async setQdot(values) {
+    qdotInputs.forEach((input, i) => { input.value = String(values[i]); });
+    const before = state.velocityResponses;
+    requestVelocity();
+    if (values.every((v) => v === 0)) return state.lastVelocity;
+    while (state.velocityResponses === before || velocityInFlight || velocityPending) {
+      await new Promise((resolve) => setTimeout(resolve, 20));
+    }
+    return state.lastVelocity;
+  },
   /** The exact joint values (the thumbs of the range inputs are rounded to their step). */
   sliderValues: () => currentQ(),
   targetPose: () => ikTargetPose(),
@@ -777,6 +862,249 @@ window.viewerTest = {
     return { x: rect.left + (point.x + 1) / 2 * rect.width, y: rect.top + (1 - point.y) / 2 * rect.height };
   },
 };
+
+// ---------------------------------------------------------------------------- fit
+$("btn-fit").addEventListener("click", () => { if (model) fitCamera(); });
+
+// ---------------------------------------------------------------------------- workspace cloud
+// POST /models/{id}/workspace with Accept: application/x-npy answers an (N, 4) float64 array of
+// rows x, y, z, manipulability (world frame): drawn as points coloured by manipulability / max.
+let wsSeq = 0;
+
+/** The float64 array of a NumPy .npy file (format 1.x/2.x, little-endian '<f8', C order) and its shape. */
+function parseNpy(buffer) {
+  const bytes = new Uint8Array(buffer);
+  if (bytes[0] !== 0x93 || String.fromCharCode(...bytes.slice(1, 6)) !== "NUMPY") throw new Error("not a .npy answer");
+  const major = bytes[6];
+  const view = new DataView(buffer);
+  const headerLength = major === 1 ? view.getUint16(8, true) : view.getUint32(8, true);
+  const start = (major === 1 ? 10 : 12) + headerLength;
+  const header = new TextDecoder().decode(bytes.slice(major === 1 ? 10 : 12, start));
+  if (!header.includes("'<f8'") || header.includes("'fortran_order': True")) throw new Error(`unexpected .npy header ${header}`);
+  const shape = (header.match(/'shape': \(([^)]*)\)/)[1]).split(",").filter((x) => x.trim()).map(Number);
+  return { data: new Float64Array(buffer, start), shape };
+}
+
+/** Viridis at t in [0, 1] (five stops, linear between them). */
+const VIRIDIS = [[0x44, 0x01, 0x54], [0x3b, 0x52, 0x8b], [0x21, 0x91, 0x8c], [0x5e, 0xc9, 0x62], [0xfd, 0xe7, 0x25]];
+function viridis(t, out, k) {
+  const x = Math.min(Math.max(t, 0), 1) * (VIRIDIS.length - 1);
+  const i = Math.min(Math.floor(x), VIRIDIS.length - 2);
+  const f = x - i;
+  for (let c = 0; c < 3; c++) out[k + c] = (VIRIDIS[i][c] + f * (VIRIDIS[i + 1][c] - VIRIDIS[i][c])) / 255;
+}
+
+function clearWorkspace() {
+  wsSeq += 1;
+  if (cloud) {
+    scene.remove(cloud);
+    cloud.geometry.dispose();
+    cloud.material.dispose();
+    cloud = null;
+  }
+  state.workspace = null;
+  $("ws-show").disabled = true;
+  $("ws-clear").disabled = true;
+  $("ws-colorbar").hidden = true;
+  $("ws-status").textContent = "";
+  requestRender();
+}
+
+function setWsStatus(text, kind = "") {
+  $("ws-status").textContent = text;
+  $("ws-status").className = kind;
+}
+
+async function sampleWorkspace() {
+  if (!model) return;
+  const id = model.id;
+  const link = state.selectedLink;
+  const samples = Math.round(Number($("ws-samples").value) || 20000);
+  const seed = Math.round(Number($("ws-seed").value) || 0);
+  const seq = ++wsSeq;
+  state.wsRequests += 1;
+  setWsStatus(`Sampling ${samples} configurations for ${link}...`);
+  try {
+    const body = { link, samples, random_seed: seed };
+    const [buffer, summary] = await Promise.all([
+      api(`/models/${encodeURIComponent(id)}/workspace`, { method: "POST", body, binary: "application/x-npy" }),
+      api(`/models/${encodeURIComponent(id)}/workspace`, { method: "POST", body }),
+    ]);
+    state.wsResponses += 1;
+    if (seq !== wsSeq || !model || model.id !== id) return;
+    const { data, shape } = parseNpy(buffer);
+    const n = shape[0];
+    const positions = new Float32Array(3 * n);
+    const colors = new Float32Array(3 * n);
+    let best = 0;
+    const values = new Float64Array(n);
+    for (let i = 0; i < n; i++) { values[i] = data[4 * i + 3]; best = Math.max(best, values[i]); }
+    values.sort();
+    const top = n ? values[Math.min(n - 1, Math.floor(CLOUD_COLOR_QUANTILE * n))] || best : 0;
+    for (let i = 0; i < n; i++) {
+      positions[3 * i] = data[4 * i];
+      positions[3 * i + 1] = data[4 * i + 1];
+      positions[3 * i + 2] = data[4 * i + 2];
+      viridis(top > 0 ? data[4 * i + 3] / top : 0, colors, 3 * i);
+    }
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute("position", new THREE.BufferAttribute(positions, 3));
+    geometry.setAttribute("color", new THREE.BufferAttribute(colors, 3));
+    const material = new THREE.PointsMaterial({ size: modelSize * CLOUD_POINT_FRACTION, vertexColors: true,
+                                                 transparent: true, opacity: 0.7, depthWrite: false });
+    if (cloud) { scene.remove(cloud); cloud.geometry.dispose(); cloud.material.dispose(); }
+    cloud = new THREE.Points(geometry, material);
+    cloud.name = "workspace-cloud";
+    cloud.visible = $("ws-show").checked;
+    scene.add(cloud);
+    state.workspace = { link, samples: n, maxManipulability: best, colorTop: top, volume: summary.volume,
+                        area: summary.area ?? null, reach: summary.reach };
+    $("ws-show").disabled = false;
+    $("ws-clear").disabled = false;
+    $("ws-colorbar").hidden = false;
+    $("ws-max").textContent = `${fmt(top, 4)} (95th percentile; max ${fmt(best, 4)})`;
+    const size = summary.dimension === 3 ? `volume ${fmt(summary.volume, 3)} m³` : `area ${fmt(summary.area, 3)} m²`;
+    setWsStatus(`${link}: ${n} samples, reach ${fmt(summary.reach, 3)} m, ${size}.`);
+    if (cloud.visible) fitCamera();        // frame the cloud around the model
+    requestRender();
+  } catch (err) {
+    state.wsResponses += 1;
+    if (seq !== wsSeq) return;
+    setWsStatus("Sampling failed (see the message above).", "warn");
+    showError(err);
+  }
+}
+
+$("ws-sample").addEventListener("click", () => sampleWorkspace());
+$("ws-clear").addEventListener("click", () => clearWorkspace());
+$("ws-show").addEventListener("change", () => { if (cloud) { cloud.visible = $("ws-show").checked; requestRender(); } });
+
+// ---------------------------------------------------------------------------- link velocities
+// With joint velocities set, every FK answer is followed by POST /models/{id}/velocity (links
+// "all") and an arrow on each moving link shows the velocity of its origin (world axes).
+let qdotInputs = [];
+let velocityArrows = {};  // link -> THREE.Group (unit arrow along +z)
+let velocityGroup = null;
+let velocitySeq = 0;
+let velocityInFlight = false;
+let velocityPending = false;
+
+function buildQdotInputs(info) {
+  const container = $("qdot-inputs");
+  container.replaceChildren();
+  qdotInputs = info.joint_names.map((name) => {
+    const joint = info.joints.find((j) => j.name === name);
+    const row = document.createElement("label");
+    row.className = "qdot";
+    row.innerHTML = `<span></span><input type="number" step="0.1" value="0">`;
+    row.querySelector("span").textContent = `${name} [${joint && joint.type === "prismatic" ? "m/s" : "rad/s"}]`;
+    const input = row.querySelector("input");
+    input.dataset.joint = name;
+    input.addEventListener("input", () => requestVelocity());
+    container.appendChild(row);
+    return input;
+  });
+  clearVelocityArrows();
+  $("qd-status").textContent = "";
+}
+
+function currentQdot() {
+  return qdotInputs.map((input) => (Number.isFinite(Number(input.value)) ? Number(input.value) : 0));
+}
+
+function clearVelocityArrows() {
+  velocitySeq += 1;
+  if (velocityGroup) {
+    scene.remove(velocityGroup);
+    velocityGroup.traverse((o) => { if (o.geometry) o.geometry.dispose(); if (o.material) o.material.dispose(); });
+  }
+  velocityGroup = null;
+  velocityArrows = {};
+  state.velocityArrows = 0;
+  state.lastVelocity = null;
+  requestRender();
+}
+
+function requestVelocity() {
+  if (!model || !qdotInputs.length) return;
+  if (currentQdot().every((v) => v === 0)) {
+    if (velocityGroup) clearVelocityArrows();
+    $("qd-status").textContent = "";
+    return;
+  }
+  if (velocityInFlight) { velocityPending = true; return; }
+  runVelocity();
+}
+
+async function runVelocity() {
+  velocityInFlight = true;
+  velocityPending = false;
+  const id = model.id;
+  const token = loadToken;
+  const seq = ++velocitySeq;
+  const q = currentQ();
+  const qdot = currentQdot();
+  state.velocityRequests += 1;
+  try {
+    const answer = await api(`/models/${encodeURIComponent(id)}/velocity`, { method: "POST", body: { q, qdot, links: "all" } });
+    state.velocityResponses += 1;
+    if (token !== loadToken || seq !== velocitySeq || !lastPoses) return;
+    drawVelocityArrows(answer.velocities, q, qdot);
+  } catch (err) {
+    state.velocityResponses += 1;
+    showError(err);
+  } finally {
+    velocityInFlight = false;
+    if (velocityPending && token === loadToken) runVelocity();
+  }
+}
+
+function drawVelocityArrows(velocities, q, qdot) {
+  if (!velocityGroup) {
+    velocityGroup = new THREE.Group();
+    velocityGroup.name = "velocity-arrows";
+    scene.add(velocityGroup);
+  }
+  let vmax = 0;
+  const linear = {};
+  for (const [link, v] of Object.entries(velocities)) {
+    linear[link] = v.linear;
+    vmax = Math.max(vmax, Math.hypot(...v.linear));
+  }
+  const scale = vmax > 0 ? (modelSize * VELOCITY_ARROW_FRACTION) / vmax : 0;
+  let drawn = 0;
+  for (const [link, v] of Object.entries(linear)) {
+    const speed = Math.hypot(...v);
+    let arrow = velocityArrows[link];
+    if (!arrow) {
+      arrow = new THREE.Group();
+      const material = new THREE.MeshBasicMaterial({ color: 0xff5a1f });
+      for (const g of unitArrowGeometry(0, 0.22, 0.035, 0.09)) arrow.add(new THREE.Mesh(g, material));
+      arrow.name = `velocity:${link}`;
+      velocityArrows[link] = arrow;
+      velocityGroup.add(arrow);
+    }
+    const pose = lastPoses[link];
+    arrow.visible = speed * scale > modelSize * 1e-3 && Boolean(pose);
+    if (!arrow.visible) continue;
+    drawn += 1;
+    arrow.position.set(...pose.position);
+    arrow.quaternion.setFromUnitVectors(Z_AXIS, new THREE.Vector3(...v).divideScalar(speed));
+    arrow.scale.setScalar(speed * scale);
+  }
+  state.velocityArrows = drawn;
+  state.lastVelocity = { q, qdot, linear, scale };
+  $("qd-status").textContent = vmax > 0
+    ? `Fastest link origin: ${fmt(vmax, 3)} m/s (arrow ${fmt(modelSize * VELOCITY_ARROW_FRACTION, 3)} m).`
+    : "No link moves.";
+  requestRender();
+}
+
+$("qd-zero").addEventListener("click", () => { for (const input of qdotInputs) input.value = "0"; requestVelocity(); });
+$("qd-random").addEventListener("click", () => {
+  for (const input of qdotInputs) input.value = (Math.random() * 2 - 1).toFixed(2);
+  requestVelocity();
+});
 
 // ---------------------------------------------------------------------------- links panel
 /** The leaf link farthest (in moving joints) from the root: a sensible first selection. */
@@ -866,6 +1194,10 @@ async function loadModel(id, { push = true } = {}) {
     buildLinkList(info);
     buildRobot(info, visuals, fk.poses);
     applyPoses(fk.poses);
+    resize();
+    fitCamera(FIT_DIRECTION);
+    clearWorkspace();
+    buildQdotInputs(info);
     showOutOfLimits(fk.out_of_limits || []);
     $("model-picker").value = model.id;
     $("model-summary").textContent = `${info.name || model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;

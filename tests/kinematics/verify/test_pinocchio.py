@@ -209,3 +209,60 @@ def test_deviation_worst():
     assert Deviation(0.0, 0.0).worst == 0.0
     assert Deviation(0.0, 0.0).reference == REFERENCE_NAME
     assert REFERENCE_NAME.startswith("pinocchio ")
+
+
+# ---------------------------------------------------------------------- velocities and tool frames
+def test_to_pinocchio_v_one_entry_per_continuous_joint():
+    m = parse_urdf(THREE_JOINTS_URDF)
+    ref = reference_for(m)
+    assert ref.pin_model.nv == m.dof  # a continuous joint: two q entries, one velocity
+    v = ref.to_pinocchio_v(np.array([0.3, -0.2, 0.7]))
+    pm = ref.pin_model
+    for name, value in zip(m.joint_names, (0.3, -0.2, 0.7)):
+        assert v[pm.joints[pm.getJointId(name)].idx_v] == value
+
+
+def test_velocities_of_the_mimic_tree_with_and_without_native_mimic(rng, monkeypatch):
+    m = tree_mimic()
+    Q = m.sample_configurations(4, rng)
+    Qd = rng.uniform(-1, 1, Q.shape)
+    assert bridge.compare_velocity(m, Q, Qd) < AGREEMENT
+    real = bridge.pin.buildModelFromXML
+
+    def refuse_mimic(xml, *args, mimic=False, **kwargs):
+        if mimic:
+            raise RuntimeError("refused")
+        return real(xml, *args, mimic=False, **kwargs)
+
+    monkeypatch.setattr(bridge.pin, "buildModelFromXML", refuse_mimic)
+    fresh = tree_mimic()
+    assert reference_for(fresh).mimic_native is False
+    assert bridge.compare_velocity(fresh, Q, Qd) < AGREEMENT
+
+
+def test_compare_velocity_detects_a_wrong_twist(rng):
+    m = tree_mimic()
+    Q = m.sample_configurations(3, rng)
+    Qd = rng.uniform(-1, 1, Q.shape)
+    twists = compile_model(m).velocity(Q, Qd)
+    assert bridge.compare_velocity(m, Q, Qd, twists=twists) < AGREEMENT
+    twists["local"][1, 2, 4] += 2e-6
+    assert bridge.compare_velocity(m, Q, Qd, twists=twists) == pytest.approx(2e-6, rel=1e-6)
+
+
+def test_tool_frames_are_added_to_a_copy_of_the_model(rng):
+    m = tree_mimic()
+    ref = reference_for(m)
+    frames_before = ref.pin_model.nframes
+    tool = np.eye(4)
+    tool[:3, 3] = [0.1, 0.0, 0.05]
+    frames = ref.frames(["left_tip"], tool)
+    assert ref.pin_model.nframes == frames_before  # the cached model is untouched
+    q = m.sample_configurations(1, rng)[0]
+    np.testing.assert_allclose(frames.poses(q)["left_tip"], ref.poses(q)["left_tip"] @ tool, atol=1e-15)
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.2, 0.0]
+    dev = compare_fk(m, q[None], ["left_tip"], poses=(compile_model(m).fk(q[None], ["left_tip"]) @ T), tool=T)
+    assert dev.worst < AGREEMENT
+    assert compare_fk(m, q[None], ["left_tip"], tool=tool).worst < AGREEMENT
+    assert compare_jacobian(m, q[None], "left_tip", tool=tool) < AGREEMENT

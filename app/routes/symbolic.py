@@ -1,0 +1,79 @@
+"""Closed forms (sympy) of a model's chain or of a symbolic DH table, and numeric task vectors.
+
+``POST /models/{id}/symbolic`` and ``POST /symbolic/dh`` answer ``A_i``, ``T``, Jacobians and
+task vectors in LaTeX, text, Python or C (:func:`kinematics.api.symbolic`); the derivation runs
+in a worker process stopped after ``KIN_SYMBOLIC_TIMEOUT`` seconds (422 ``symbolic-timeout``,
+suggesting ``simplify: false``). ``POST /models/{id}/task`` gives ``r = (p, phi)`` and the
+analytic Jacobian ``J_r`` numerically (:func:`kinematics.api.task`).
+"""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Body, Depends
+
+from kinematics import api
+
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..schemas import (SYMBOLIC_DH_EXAMPLES, SYMBOLIC_EXAMPLES, Problem, SymbolicDHRequest, SymbolicRequest,
+                       SymbolicResponse, TaskRequest, TaskResponse)
+
+router = APIRouter(tags=["closed forms"], dependencies=[Depends(require_read_key)])
+
+_ERRORS = {
+    404: {"model": Problem, "description": "unknown model or link"},
+    422: {"model": Problem, "description": "invalid input, no closed form, or over the time limit (symbolic-timeout)"},
+}
+
+
+def _timeout(settings, requested: float | None) -> float:
+    limit = settings.symbolic_timeout
+    return limit if requested is None else min(float(requested), limit)
+
+
+def _options(req, settings) -> dict:
+    return dict(what=req.what, fmt=req.format, simplify=req.simplify, representation=req.representation,
+                components=req.components, variables=req.variables, prefix=req.prefix,
+                timeout=_timeout(settings, req.timeout))
+
+
+@router.post("/models/{model_id}/symbolic", response_model=SymbolicResponse, response_model_exclude_none=True,
+             responses=_ERRORS)
+def symbolic(model_id: ModelId, registry: RegistryDep, settings: SettingsDep,
+             req: SymbolicRequest = Body(openapi_examples=SYMBOLIC_EXAMPLES)) -> dict:
+    """Closed forms of the chain from the root to `tip`: the factors `A_i`, `T(q)`, the Jacobians
+    (`local_world_aligned`, `world`; 6 x n, linear rows first) and task vectors `r(q)`, `J_r = dr/dq`.
+
+    Joint variables `q1..qn` follow the chain (`joint_variables` names their joints). For a DH
+    preset or DH-built model the factors are the table's DH matrices. Formats: `latex` (the notes'
+    `c_{12}`, `s_{1}`), `text` (strings `sympy.sympify` reads), `python` (a numpy module, batched),
+    `c` (C99 functions such as `void fk(const double *q, double *T)`).
+    """
+    rec = registry.get(model_id)
+    answer = api.symbolic(rec.model, tip=req.tip, dh_table=rec.dh_table, **_options(req, settings))
+    return {"model": rec.id, **answer.output}
+
+
+@router.post("/symbolic/dh", response_model=SymbolicResponse, response_model_exclude_none=True, responses=_ERRORS)
+def symbolic_dh(settings: SettingsDep, req: SymbolicDHRequest = Body(openapi_examples=SYMBOLIC_DH_EXAMPLES)) -> dict:
+    """Closed forms of a DH table whose entries may be parameter names or expressions (`"a1"`,
+    `"-d4"`, `"pi/2"`); nothing is registered. `parameters` lists the symbols (the order of `p` in C)."""
+    answer = api.symbolic_dh(req.table, **_options(req, settings))
+    return {"model": None, **answer.output}
+
+
+@router.post("/models/{model_id}/task", response_model=TaskResponse, responses=_ERRORS)
+def task(model_id: ModelId, req: TaskRequest, registry: RegistryDep, settings: SettingsDep) -> dict:
+    """Task vectors `r = (p, phi)` of `link` and analytic Jacobians `J_r = dr/dq = blockdiag(I, E(phi)^-1) J`
+    (J: the geometric Jacobian, local_world_aligned). At a singularity of the representation (Euler
+    angles at their gimbal lock, ...) the answer is 422 `representation-singularity`."""
+    rec = registry.get(model_id)
+    budget = api.Budget(max_batch=settings.max_batch, max_result_values=settings.max_result_values)
+    answer = api.task(rec.model, req.q, link=req.link, representation=req.representation, components=req.components,
+                      base=req.base, limits=req.limits, budget=budget)
+    one = not answer.is_batch
+    oob = answer.out_of_limits()
+    return {"model": rec.id, "link": answer.link, "representation": answer.representation.name,
+            "components": list(answer.representation.labels), "joint_names": list(rec.model.joint_names),
+            "r": answer.r[0].tolist() if one else answer.r.tolist(),
+            "J_r": answer.J_r[0].tolist() if one else answer.J_r.tolist(),
+            "out_of_limits": oob[0] if one else oob}

@@ -1,0 +1,238 @@
+"""A Python client of the kinematics service: numpy arrays in and out over the binary transport.
+
+It speaks HTTP with the standard library (``http.client``) and numpy's ``.npy``/``.npz``
+formats, and imports nothing else of this package (an import contract in ``pyproject.toml``
+checks it), so a pipeline can call a remote service the way it calls the library::
+
+    from kinematics.client import Client, ServiceError
+
+    kin = Client("http://127.0.0.1:8000", api_key=None)
+    T = kin.fk("ur5", Q, links=["tool0"])          # (N, 1, 4, 4)
+    J = kin.jacobian("ur5", Q, link="tool0")        # (N, 6, 6)
+    answer = kin.ik("ur5", T[:, 0], link="tool0")   # {"q", "success", "position_error", ...}
+    twists = kin.velocity("ur5", Q, Qd)             # {"world": (N, L, 6), "local": ..., ...}
+    model = kin.upload_urdf(open("robot.urdf").read())
+
+Every error answer of the service (a problem-details document, RFC 9457) raises
+:class:`ServiceError`, which carries the document (``problem``), its ``status``, ``slug``
+(``unknown-model``, ``invalid-joint-values``, ...), ``title`` and ``detail``. The headers of the
+last answer (``x-links``, ``x-joint-names``, ``x-out-of-limits``, ...; names in lower case) are
+in ``Client.last_headers``. A client is safe to share between threads (one connection per thread).
+"""
+
+from __future__ import annotations
+
+import http.client
+import io
+import json
+import os
+import threading
+import urllib.parse
+from typing import Any, Sequence
+
+import numpy as np
+
+NPY = "application/x-npy"
+NPZ = "application/x-npz"
+#: the problem type prefix of the service's errors
+PROBLEM_PREFIX = "urn:kinematics:problem:"
+
+
+class ServiceError(Exception):
+    """An error answer of the service (or no answer): ``status`` (0 when the service could not be
+    reached), ``problem`` (the problem-details document), ``slug``, ``title``, ``detail``."""
+
+    def __init__(self, status: int, problem: dict[str, Any]):
+        self.status = status
+        self.problem = problem
+        self.type = problem.get("type", "")
+        self.slug = self.type[len(PROBLEM_PREFIX):] if self.type.startswith(PROBLEM_PREFIX) else self.type
+        self.title = problem.get("title", "")
+        self.detail = problem.get("detail", "")
+        super().__init__(f"{status} {self.slug or self.title}: {self.detail or self.title}")
+
+
+def _npy(arr) -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, np.ascontiguousarray(arr, dtype=np.float64), allow_pickle=False)
+    return buf.getvalue()
+
+
+def _names(values) -> str | None:
+    if values is None:
+        return None
+    if isinstance(values, str):
+        return values
+    return ",".join(values)
+
+
+def _split_header(value: str | None) -> list[str] | None:
+    if value is None:
+        return None
+    return [urllib.parse.unquote(v) for v in value.split(",")] if value else []
+
+
+class Client:
+    """The service at ``url`` (``http://host:port``, optionally with a path prefix); ``api_key``
+    is sent as ``X-API-Key`` when given; ``timeout`` in seconds."""
+
+    def __init__(self, url: str, api_key: str | None = None, timeout: float = 60.0):
+        parts = urllib.parse.urlsplit(url)
+        if parts.scheme not in ("http", "https") or not parts.hostname:
+            raise ValueError(f"url must be http(s)://host[:port][/prefix], got {url!r}")
+        self.url = url.rstrip("/")
+        self.api_key = api_key
+        self.timeout = timeout
+        self._scheme, self._host, self._port = parts.scheme, parts.hostname, parts.port
+        self._prefix = parts.path.rstrip("/")
+        self._local = threading.local()
+        self.last_headers: dict[str, str] = {}
+
+    # ------------------------------------------------------------------ transport
+    def _connection(self) -> http.client.HTTPConnection:
+        conn = getattr(self._local, "conn", None)
+        if conn is None:
+            cls = http.client.HTTPSConnection if self._scheme == "https" else http.client.HTTPConnection
+            conn = self._local.conn = cls(self._host, self._port, timeout=self.timeout)
+        return conn
+
+    def close(self) -> None:
+        """Close this thread's connection (a later call opens a new one)."""
+        conn = getattr(self._local, "conn", None)
+        if conn is not None:
+            conn.close()
+            self._local.conn = None
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def request(self, method: str, path: str, *, query: dict[str, Any] | None = None, body: bytes | None = None,
+                content_type: str | None = None, accept: str = "application/json") -> tuple[int, dict[str, str], bytes]:
+        """One HTTP exchange: ``(status, headers, body)`` of a 2xx answer; :class:`ServiceError` otherwise."""
+        q = {k: ("true" if v is True else "false" if v is False else v) for k, v in (query or {}).items() if v is not None}
+        target = self._prefix + path + ("?" + urllib.parse.urlencode(q, doseq=True) if q else "")
+        headers = {"Accept": accept}
+        if content_type:
+            headers["Content-Type"] = content_type
+        if self.api_key is not None:
+            headers["X-API-Key"] = self.api_key
+        for attempt in (0, 1):  # a kept-alive connection the server has closed: reconnect once
+            conn = self._connection()
+            try:
+                conn.request(method, target, body=body, headers=headers)
+                resp = conn.getresponse()
+                data = resp.read()
+                break
+            except (http.client.RemoteDisconnected, BrokenPipeError, ConnectionResetError) as exc:
+                self.close()
+                if attempt:
+                    raise ServiceError(0, {"title": "no answer", "detail": str(exc)}) from None
+            except OSError as exc:
+                self.close()
+                raise ServiceError(0, {"title": "cannot reach the service", "detail": f"{self.url}: {exc}"}) from None
+        self.last_headers = {k.lower(): v for k, v in resp.getheaders()}
+        if resp.status >= 400:
+            try:
+                problem = json.loads(data)
+                if not isinstance(problem, dict):
+                    raise ValueError
+            except ValueError:
+                problem = {"title": resp.reason, "detail": data[:500].decode("utf-8", "replace")}
+            raise ServiceError(resp.status, problem)
+        return resp.status, self.last_headers, data
+
+    def _json(self, method: str, path: str, payload: Any = None, **kw) -> Any:
+        body = None if payload is None else json.dumps(payload).encode()
+        _, _, data = self.request(method, path, body=body, content_type="application/json" if body else None, **kw)
+        return json.loads(data) if data else None
+
+    def _array(self, path: str, arr, query: dict[str, Any]) -> np.ndarray:
+        _, _, data = self.request("POST", path, query=query, body=_npy(arr), content_type=NPY, accept=NPY)
+        return np.load(io.BytesIO(data), allow_pickle=False)
+
+    @staticmethod
+    def _id(model_id: str) -> str:
+        return urllib.parse.quote(str(model_id), safe="")
+
+    # ------------------------------------------------------------------ models
+    def health(self) -> dict[str, Any]:
+        return self._json("GET", "/health")
+
+    def models(self) -> list[dict[str, Any]]:
+        """``[{id, name, source, dof, error}]`` of every model the service has."""
+        return self._json("GET", "/models")
+
+    def model(self, model_id: str) -> dict[str, Any]:
+        """The model's description (joint names, links, joints, limits, ...)."""
+        return self._json("GET", f"/models/{self._id(model_id)}")
+
+    def upload_urdf(self, urdf: str | bytes | os.PathLike, name: str | None = None) -> dict[str, Any]:
+        """Register a URDF (its text, bytes, or a path to the file); the model's description with its ``id``."""
+        if isinstance(urdf, os.PathLike):
+            with open(urdf, "rb") as fh:
+                urdf = fh.read()
+        body = urdf.encode() if isinstance(urdf, str) else bytes(urdf)
+        _, _, data = self.request("POST", "/models", query={"name": name}, body=body, content_type="application/xml")
+        return json.loads(data)
+
+    def upload_dh(self, table: dict[str, Any]) -> dict[str, Any]:
+        """Register a DH table (``name``, ``convention``, ``angles``, ``joints``, ``base``, ``tool``)."""
+        return self._json("POST", "/models/dh", table)
+
+    def delete_model(self, model_id: str) -> None:
+        self.request("DELETE", f"/models/{self._id(model_id)}")
+
+    # ------------------------------------------------------------------ kinematics
+    def fk(self, model_id: str, q, links: Sequence[str] | str | None = None, *, verify: bool = False,
+           limits: str = "report", point: Sequence[float] | None = None) -> np.ndarray:
+        """Poses ``T_world_link`` (N, L, 4, 4) of ``links`` (None: the leaf links; ``"all"``; names) for
+        joint values ``q`` (N, dof) or (dof,); the link order is ``links()``."""
+        query = {"links": _names(links), "verify": verify or None, "limits": limits,
+                 "point": None if point is None else ",".join(map(repr, map(float, point)))}
+        return self._array(f"/models/{self._id(model_id)}/fk", q, query)
+
+    def jacobian(self, model_id: str, q, link: str | None = None, reference: str = "world", *, verify: bool = False,
+                 limits: str = "report", point: Sequence[float] | None = None) -> np.ndarray:
+        """Jacobians (N, 6, dof) of ``link`` (None: the first leaf link), linear rows first, in ``reference``."""
+        query = {"link": link, "reference": reference, "verify": verify or None, "limits": limits,
+                 "point": None if point is None else ",".join(map(repr, map(float, point)))}
+        return self._array(f"/models/{self._id(model_id)}/jacobian", q, query)
+
+    def velocity(self, model_id: str, q, qdot, links: Sequence[str] | str | None = None, *,
+                 verify: bool = False, limits: str = "report") -> dict[str, np.ndarray]:
+        """Twists of ``links`` for joint values and velocities (N, dof): ``{reference: (N, L, 6)}``,
+        linear part first (``local_world_aligned``: the link origin's velocity and the angular
+        velocity, world axes)."""
+        Q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        Qd = np.atleast_2d(np.asarray(qdot, dtype=np.float64))
+        if Q.shape != Qd.shape:
+            raise ValueError(f"q and qdot must have the same shape, got {Q.shape} and {Qd.shape}")
+        V = self._array(f"/models/{self._id(model_id)}/velocity", np.hstack([Q, Qd]),
+                        {"links": _names(links), "verify": verify or None, "limits": limits})
+        refs = _split_header(self.last_headers.get("x-twist-references"))
+        return {r: np.ascontiguousarray(V[:, :, k]) for k, r in enumerate(refs or [])}
+
+    def ik(self, model_id: str, target, link: str | None = None, *, mode: str = "pose",
+           position_tolerance: float | None = None, rotation_tolerance: float | None = None,
+           max_iterations: int | None = None, restarts: int | None = None, random_seed: int | None = None,
+           verify: bool = False) -> dict[str, np.ndarray]:
+        """Joint values putting ``link`` at ``target`` ((N, 4, 4) or (4, 4) poses ``T_world_link``):
+        ``{"q" (N, dof), "success", "position_error", "rotation_error", "iterations"}`` (N,) each."""
+        query = {"link": link, "mode": mode, "position_tolerance": position_tolerance,
+                 "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
+                 "random_seed": random_seed, "verify": verify or None}
+        _, _, data = self.request("POST", f"/models/{self._id(model_id)}/ik", query=query, body=_npy(target),
+                                  content_type=NPY, accept=NPZ)
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+
+    def joint_names(self) -> list[str] | None:
+        """The joint order of the last answer (``X-Joint-Names``), when the service sent it."""
+        return _split_header(self.last_headers.get("x-joint-names"))
+
+    def links(self) -> list[str] | None:
+        """The link order of the last FK or velocity answer (``X-Links``)."""
+        return _split_header(self.last_headers.get("x-links"))

@@ -1,0 +1,273 @@
+"""Distributed runs on Dask: FK and Jacobians mapped over the partitions of a Parquet dataset.
+
+When a log outgrows one machine, the computation runs on an existing engine:
+``dask.dataframe`` splits the Parquet dataset into partitions and ``dask.distributed`` runs
+one task per partition on the workers of a cluster. Each task reads its partition's joint
+columns (by name), computes with the compiled kernels and returns the output columns of
+:mod:`kinematics.io.parquet` (the time column first, then ``<link>.x ... <link>.qz`` or
+``J<r><c>``); the result is written as a partitioned Parquet dataset, one file per partition.
+
+- The model travels as a small spec (a catalogue id, or URDF text), never as compiled code:
+  each worker process loads and compiles it **once** (a per-process cache, :func:`worker_model`)
+  and reuses it for every partition it gets.
+- A task computes on one thread (Dask already runs one task per worker thread); give
+  ``threads`` to change that.
+- Results equal a local run bit for bit: each row's answer does not depend on where it is
+  computed (:mod:`kinematics.engine.parallel`).
+
+For users who already have a Dask dataframe::
+
+    import dask.dataframe as dd
+    from kinematics.distributed import fk_dask
+
+    ddf = dd.read_parquet("s3://bucket/run-*.parquet")
+    poses = fk_dask(ddf, "ur5", links=["tool0"])      # lazy: a Dask dataframe of pose columns
+    poses.to_parquet("s3://bucket/poses/")            # or .compute(), or further Dask work
+
+The command line does the same: ``kinematics fk --model ur5 logs/ --dask local:2 -o poses/``
+(``--dask tcp://scheduler:8786`` for a running cluster).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import threading
+from typing import Any, Sequence
+
+import numpy as np
+
+from . import api
+from .engine.parallel import threads as _threads
+from .engine.poe import compile_model
+from .errors import KinematicsError
+from .io.dh_table import load_table, table_to_urdf
+from .io.parquet import TIME_COLUMN, WRITE_OPTIONS, result_columns
+from .io.urdf import parse_urdf
+from .model.robot import RobotModel
+
+_cache: dict[str, RobotModel] = {}
+_lock = threading.Lock()
+#: how many times this process has loaded (and so compiled) a model: the tests read it
+LOADS = {"count": 0}
+
+
+def _dask():
+    try:
+        import dask.dataframe as dd
+    except ImportError:  # pragma: no cover - the `dask` extra
+        raise KinematicsError("distributed runs need dask: pip install 'kinematics-service[dask]'") from None
+    return dd
+
+
+def model_spec(model: Any = None, *, model_id: str | None = None, urdf: str | None = None,
+               dh: str | None = None) -> tuple[str, str]:
+    """What a worker needs to load a model: ``("id", catalogue id)`` or ``("urdf", text)``.
+
+    ``model``: a catalogue id, a spec already, or a path to a ``.urdf`` file; or name it with
+    ``model_id``, ``urdf`` (a file) or ``dh`` (a DH table file, shipped as its generated URDF).
+    Files are read here, on the client: the workers need not see them.
+    """
+    if isinstance(model, tuple) and len(model) == 2 and model[0] in ("id", "urdf"):
+        return model
+    if isinstance(model, RobotModel):
+        raise KinematicsError("give the model as a catalogue id or a URDF/DH file: a RobotModel object is not "
+                              "shipped to workers")
+    if isinstance(model, str):
+        if model.lower().endswith(".urdf") or os.path.sep in model:
+            urdf = model
+        else:
+            model_id = model
+    if model_id is not None:
+        return ("id", model_id)
+    if urdf is not None:
+        with open(urdf, encoding="utf-8") as fh:
+            return ("urdf", fh.read())
+    if dh is not None:
+        return ("urdf", table_to_urdf(load_table(dh)))
+    raise KinematicsError("name a model: a catalogue id, a URDF file or a DH table file")
+
+
+def worker_model(spec: tuple[str, str]) -> RobotModel:
+    """The model of ``spec``, loaded and compiled once per process (then cached)."""
+    key = spec[0] + ":" + (spec[1] if spec[0] == "id" else hashlib.sha256(spec[1].encode()).hexdigest())
+    model = _cache.get(key)
+    if model is not None:
+        return model
+    with _lock:
+        model = _cache.get(key)
+        if model is None:
+            model = api.load_model(model_id=spec[1]) if spec[0] == "id" else parse_urdf(spec[1])
+            compile_model(model).kernel  # compiled here, once: every partition reuses it
+            LOADS["count"] += 1
+            _cache[key] = model
+    return model
+
+
+def _labels(model: RobotModel, kind: str, links, link):
+    if kind == "fk":
+        return api.resolve_links(model, links)
+    return list(model.joint_names)
+
+
+def _empty_result(kind: str, labels) -> dict[str, np.ndarray]:
+    L = len(labels)
+    chunk = np.empty((0, L, 4, 4)) if kind == "fk" else np.empty((0, 6, L))
+    return result_columns(kind, chunk, labels)
+
+
+def compute_partition(df, spec, kind: str = "fk", links=None, link: str | None = None, reference: str = "world",
+                      time_column: str | None = TIME_COLUMN, threads: int = 1):
+    """The output columns (a pandas DataFrame, same index) of one partition ``df`` of joint
+    columns: FK of ``links`` or the Jacobian of ``link`` in ``reference``, with ``time_column``
+    carried first when the partition has it."""
+    import pandas as pd
+
+    model = worker_model(spec)
+    labels = _labels(model, kind, links, link)
+    missing = [j for j in model.joint_names if j not in df.columns]
+    if missing:
+        raise KinematicsError(f"no column for joint(s) {', '.join(missing)}")
+    Q = np.ascontiguousarray(df[list(model.joint_names)].to_numpy(dtype=np.float64))
+    if Q.shape[0] == 0:
+        cols = _empty_result(kind, labels)
+    else:
+        with _threads(threads):
+            if kind == "fk":
+                result = api.fk(model, Q, links=labels).poses
+            else:
+                result = api.jacobian(model, Q, link=link, reference=reference).jacobians
+        cols = result_columns(kind, result, labels)
+    out = pd.DataFrame(cols, index=df.index, copy=False)
+    if time_column is not None and time_column in df.columns:
+        out.insert(0, time_column, df[time_column])
+    return out
+
+
+def _map(ddf, spec, kind, links, link, reference, time_column, threads):
+    import pandas as pd
+
+    model = worker_model(spec)  # on the client too: validates the links and gives the columns
+    labels = _labels(model, kind, links, link)
+    if kind == "jacobian":
+        link = model.leaf_links[0] if link is None else link
+        api.resolve_links(model, [link])
+    missing = [j for j in model.joint_names if j not in ddf.columns]
+    if missing:
+        raise KinematicsError(f"the dataframe has no column for joint(s) {', '.join(missing)}")
+    meta = pd.DataFrame(_empty_result(kind, labels))
+    if time_column is not None and time_column in ddf.columns:
+        meta.insert(0, time_column, ddf._meta[time_column])
+    return ddf.map_partitions(compute_partition, spec, kind, labels if kind == "fk" else None, link, reference,
+                              time_column, threads, meta=meta)
+
+
+def fk_dask(ddf, model, links: Sequence[str] | str | None = None, time_column: str | None = TIME_COLUMN,
+            threads: int = 1):
+    """FK of ``links`` (None: the leaf links; ``"all"``; names) for every row of the Dask dataframe
+    ``ddf`` (joint columns by name): a lazy Dask dataframe of ``<link>.x, ..., <link>.qz`` columns
+    (``time_column`` first when ``ddf`` has it), one partition per input partition. ``model``: as
+    :func:`model_spec` (a catalogue id, a URDF file, or a spec)."""
+    return _map(ddf, model_spec(model), "fk", links, None, "world", time_column, threads)
+
+
+def jacobian_dask(ddf, model, link: str | None = None, reference: str = "world",
+                  time_column: str | None = TIME_COLUMN, threads: int = 1):
+    """Jacobians of ``link`` in ``reference`` for every row of ``ddf``: a lazy Dask dataframe of
+    ``J<r><c>`` columns (as :func:`fk_dask`)."""
+    return _map(ddf, model_spec(model), "jacobian", None, link, reference, time_column, threads)
+
+
+#: default target size of a partition (uncompressed): small enough to balance the workers
+DEFAULT_BLOCKSIZE = "32MiB"
+
+
+def read_joint_parquet(source, model, time_column: str | None = TIME_COLUMN, blocksize: str | int | None = DEFAULT_BLOCKSIZE):
+    """A Dask dataframe of the joint columns (and the time column) of a Parquet file, directory or
+    glob, split into partitions by row groups (``blocksize``: Dask's target partition size)."""
+    dd = _dask()
+    model = worker_model(model_spec(model))
+    cols = list(model.joint_names)
+    import pyarrow.parquet as pq
+
+    from .io.parquet import parquet_files
+
+    names = pq.ParquetFile(parquet_files(source)[0]).schema_arrow.names
+    if time_column is not None and time_column in names:
+        cols = [time_column] + cols
+    kw = {} if blocksize is None else {"blocksize": blocksize}
+    return dd.read_parquet(str(source), columns=cols, split_row_groups="adaptive", **kw)
+
+
+def connect(address: str):
+    """A ``dask.distributed`` client: ``local:N`` starts a LocalCluster of N worker processes (one
+    thread each); anything else is a scheduler address (``tcp://host:8786``)."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - the `dask` extra
+        raise KinematicsError("distributed runs need dask: pip install 'kinematics-service[dask]'") from None
+    if address.startswith("local"):
+        n = address.partition(":")[2] or str(os.cpu_count() or 1)
+        try:
+            workers = int(n)
+        except ValueError:
+            raise KinematicsError(f"--dask local:N needs a number of workers, got {address!r}") from None
+        if workers < 1:
+            raise KinematicsError("--dask local:N needs at least one worker")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+        client._kinematics_cluster = cluster
+        return client
+    return Client(address)
+
+
+def _one_core_per_thread() -> None:
+    """On a worker: pyarrow's decoding threads as many as the worker's task threads (by default
+    pyarrow uses every core in every worker process, and the workers of a machine fight over them)."""
+    try:
+        from distributed import get_worker
+
+        n = get_worker().state.nthreads
+    except (ImportError, ValueError, AttributeError):
+        return
+    import pyarrow
+
+    pyarrow.set_cpu_count(max(1, int(n)))
+
+
+def warm_up(client, spec: tuple[str, str]) -> dict:
+    """Load and compile the model on every worker of ``client`` now (in parallel), so that the
+    first partitions do not wait for it: ``{worker: loads so far}``."""
+    def load(spec=spec):
+        _one_core_per_thread()
+        worker_model(spec)
+        return LOADS["count"]
+
+    return client.run(load)
+
+
+def run_parquet(source, dest, model, kind: str = "fk", links=None, link=None, reference: str = "world",
+                address: str = "local", time_column: str | None = TIME_COLUMN, blocksize=DEFAULT_BLOCKSIZE) -> int:
+    """Read ``source`` (Parquet), compute on the Dask cluster at ``address`` (:func:`connect`), write
+    the partitioned Parquet dataset ``dest`` (a directory, one file per partition); the row count."""
+    spec = model_spec(model)
+    client = connect(address)
+    try:
+        warm_up(client, spec)
+        ddf = read_joint_parquet(source, spec, time_column, blocksize)
+        mapped = _map(ddf, spec, kind, links, link, reference, time_column, 1)
+        mapped.to_parquet(str(dest), write_index=False, **WRITE_OPTIONS)
+        return int(sum(f.metadata.num_rows for f in _files(dest)))
+    finally:
+        cluster = getattr(client, "_kinematics_cluster", None)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _files(dest):
+    import pyarrow.parquet as pq
+
+    from .io.parquet import parquet_files
+
+    return [pq.ParquetFile(f) for f in parquet_files(dest)]

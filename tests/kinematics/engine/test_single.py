@@ -1,0 +1,78 @@
+"""The single-configuration entries (kinematics/engine/single.py) equal the batch rows bit for bit."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from kinematics import compile_model
+from kinematics.engine.single import fk_function, jacobian_function
+from kinematics.errors import KinematicsError
+from kinematics.spatial.reference import REFERENCES
+
+MODELS = ["ur5", "panda", "talos_reduced", "scara", "rpr_example", "planar_2r"]
+
+
+@pytest.mark.parametrize("model_id", MODELS)
+def test_single_equals_batch_row_bit_for_bit(catalogue, model_id):
+    model = catalogue.get(model_id)
+    poe = compile_model(model)
+    Q = model.sample_configurations(300, np.random.default_rng(21))  # a batch: the vectorised loops
+    Q[-3:] *= 1e5  # far turns; beyond the polynomial's range the kernels use libm (both paths)
+    Q[-1] = 3e6
+    fk_all = fk_function(poe, list(model.links))
+    T = poe.fk(Q)
+    for i in range(Q.shape[0]):
+        assert np.array_equal(fk_all(Q[i]), T[i])
+    for leaf in model.leaf_links:
+        fk1 = fk_function(poe, leaf)
+        Tl = poe.fk(Q, [leaf])[:, 0]
+        for reference in REFERENCES:
+            J1 = jacobian_function(poe, leaf, reference)
+            J = poe.jacobian(Q, leaf, reference)
+            for i in range(0, Q.shape[0], 7):
+                assert np.array_equal(fk1(Q[i]), Tl[i])
+                assert np.array_equal(J1(Q[i]), J[i]), (leaf, reference, i)
+
+
+def test_tool_out_and_coercion(catalogue):
+    model = catalogue.get("ur5")
+    poe = compile_model(model)
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 0.0, 0.1]
+    q = [0.1, 0.2, -0.3, 0.4, 0.5, -0.6]
+    fk1 = fk_function(poe, "tool0", tool=tool)
+    out = np.empty((4, 4))
+    assert fk1(q, out) is out
+    assert np.array_equal(out, poe.fk(np.array([q]), ["tool0"], tool=tool)[0, 0])
+    J1 = jacobian_function(poe, "tool0", "local_world_aligned", tool=tool)
+    assert np.array_equal(J1(q), poe.jacobian(np.array([q]), "tool0", "local_world_aligned", tool=tool)[0])
+    assert np.array_equal(J1(np.array([0, 1, 0, 0, 1, 0])), J1([0.0, 1.0, 0.0, 0.0, 1.0, 0.0]))  # ints
+    assert np.array_equal(J1(np.array(q)[::1]), J1(q))
+    with pytest.raises(KinematicsError, match="vector of 6"):
+        fk1([0.0] * 5)
+    with pytest.raises(KinematicsError):
+        jacobian_function(poe, "tool0", "sideways")
+
+
+def test_threads_have_their_own_scratch(catalogue):
+    model = catalogue.get("panda")
+    poe = compile_model(model)
+    fk1 = fk_function(poe, "panda_hand_tcp")
+    Q = model.sample_configurations(2000, np.random.default_rng(5))
+    want = poe.fk(Q, ["panda_hand_tcp"])[:, 0]
+    bad = []
+
+    def run(offset):
+        for i in range(offset, Q.shape[0], 2):
+            if not np.array_equal(fk1(Q[i]), want[i]):
+                bad.append(i)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert bad == []
