@@ -4,10 +4,11 @@ A batch call (``PoEModel.fk(Q)``) validates its arguments, looks up its plan and
 its scratch and result on every call: a few microseconds that dominate when the batch is one
 configuration. :func:`fk_function` and :func:`jacobian_function` do that work once and
 return a plain function of ``q`` (a float64 vector of ``dof`` values) that makes one call of a
-compiled entry (:func:`fk_one`, :func:`jacobian_one`) on pre-bound tables and a per-thread
-scratch buffer. The entries run the batch kernels' own per-configuration code
-(``_chunk_frames``, ``_poses_row``, ``_jacobian_row``) on a chunk of one, so the answer equals
-the batch row bit for bit.
+compiled entry (:func:`fk_one`, :func:`jacobian_one`) on two packed tables (every argument
+costs the numba dispatcher time) whose tail is a per-thread scratch buffer. The entries compute
+the axis frames with scalar code that repeats the batch kernels' arithmetic operation for
+operation (:func:`_frames_one`), then run the batch kernels' own ``_poses_row`` /
+``_jacobian_row``: the answer equals the batch row bit for bit (``tests/kinematics/engine/test_single.py``).
 
 What bounds it: the compiled work is ~0.1-0.2 µs for a 6-joint arm; the rest is the fixed
 cost of entering numba from Python (its dispatcher types each argument: ~0.05 µs each, ~0.3
