@@ -8,6 +8,7 @@ exceptions (:mod:`kinematics.errors`) map to statuses by class, here and nowhere
 
 from __future__ import annotations
 
+import contextvars
 import logging
 import re
 from typing import Any
@@ -49,6 +50,17 @@ from .responses import ProblemResponse
 log = logging.getLogger("app.errors")
 
 PROBLEM_TYPE_PREFIX = "urn:kinematics:problem:"
+
+#: the id of the request being answered (set by :class:`app.middleware.RequestContext`)
+REQUEST_ID: contextvars.ContextVar[str | None] = contextvars.ContextVar("request_id", default=None)
+
+
+class RequestIdFilter(logging.Filter):
+    """Adds ``request_id`` (``-`` outside a request) to every log record it sees."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        record.request_id = REQUEST_ID.get() or "-"
+        return True
 
 #: library exception -> (status, slug, title); the first matching class wins (subclasses first)
 KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
@@ -108,6 +120,9 @@ def problem(status: int, title: str, detail: str, slug: str, headers: dict[str, 
             **extra: Any) -> ProblemResponse:
     body = {"type": PROBLEM_TYPE_PREFIX + slug, "title": title, "status": status, "detail": detail}
     body.update({k: v for k, v in extra.items() if v is not None})
+    request_id = REQUEST_ID.get()
+    if request_id is not None:
+        body["request_id"] = request_id
     return ProblemResponse(body, status_code=status, headers=headers)
 
 
@@ -205,5 +220,8 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(Exception)
     async def _bug(request: Request, exc: Exception):
-        log.exception("unhandled error on %s %s", request.method, request.url.path)
-        return problem(500, "Internal server error", "an unexpected error occurred; it has been logged", "internal-error")
+        request_id = REQUEST_ID.get()
+        log.exception("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id)
+        # sent by Starlette's outermost middleware, past RequestContext: the header is added here
+        return problem(500, "Internal server error", "an unexpected error occurred; it has been logged", "internal-error",
+                       headers={"X-Request-ID": request_id} if request_id else None)

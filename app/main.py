@@ -22,8 +22,8 @@ from kinematics import api
 from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
-from .errors import install_error_handlers
-from .middleware import BodySizeLimit
+from .errors import RequestIdFilter, install_error_handlers
+from .middleware import BodySizeLimit, RequestContext
 from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
 from .schemas import REQUEST_SCHEMAS
@@ -32,7 +32,7 @@ from .settings import Settings
 log = logging.getLogger("app")
 
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
-ROUTERS = ("health", "models", "kinematics", "ik", "velocity", "workspace", "symbolic", "viewer")
+ROUTERS = ("health", "metrics", "models", "kinematics", "ik", "velocity", "workspace", "symbolic", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
 DESCRIPTION = """Forward kinematics, Jacobians and inverse kinematics of robots (URDF or Denavit-Hartenberg),
 computed with product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
@@ -78,6 +78,48 @@ def _document_problems(schema: dict) -> None:
         components.pop(unused, None)
 
 
+def _write_operations(app: FastAPI) -> set[tuple[str, str]]:
+    """(method, path) of the operations that depend on :func:`app.deps.require_write_key` (a
+    route-level dependency; every other operation that declares security needs the read key)."""
+    from fastapi import routing
+
+    from .deps import require_write_key
+
+    iter_contexts = getattr(routing, "iter_route_contexts", None)  # FastAPI >= 0.16x nests included routers
+    routes = ([getattr(c, "original_route", c.route) for c in iter_contexts(app.routes)] if iter_contexts
+              else list(app.routes))
+
+    def writes(dependant) -> bool:
+        return any(sub.call is require_write_key or writes(sub) for sub in dependant.dependencies)
+
+    return {(method.lower(), route.path) for route in routes
+            if isinstance(route, routing.APIRoute) and writes(route.dependant) for method in route.methods}
+
+
+def _document_security(app: FastAPI, schema: dict) -> None:
+    """Declare the API-key security only where the server, as configured, asks for a key: nowhere
+    without ``KIN_API_KEY``; on writes with it; on reads too with ``KIN_API_KEY_FOR_READS``. An
+    operation that needs no key documents no 401/403 either."""
+    settings = app.state.settings
+    writes = _write_operations(app)
+    needs = set()
+    if settings.api_key:
+        needs.add("write")
+        if settings.api_key_for_reads:
+            needs.add("read")
+    for path, path_item in schema.get("paths", {}).items():
+        for method, operation in path_item.items():
+            if not isinstance(operation, dict) or not operation.get("security"):
+                continue
+            if ("write" if (method, path) in writes else "read") in needs:
+                continue
+            operation.pop("security", None)
+            for status in ("401", "403"):
+                operation.get("responses", {}).pop(status, None)
+    if not needs:
+        schema.get("components", {}).pop("securitySchemes", None)
+
+
 def _custom_openapi(app: FastAPI):
     """OpenAPI with the schemas of request bodies the handlers read themselves (JSON or .npy)."""
 
@@ -90,6 +132,7 @@ def _custom_openapi(app: FastAPI):
         components = schema.setdefault("components", {}).setdefault("schemas", {})
         for name, s in defs.get("$defs", {}).items():
             components.setdefault(name, s)
+        _document_security(app, schema)
         _document_problems(schema)
         app.openapi_schema = schema
         return schema
@@ -103,12 +146,13 @@ def _configure_logging(level: str) -> None:
     logger.setLevel(level.upper())
     if not logger.handlers and not logging.getLogger().handlers:
         handler = logging.StreamHandler()
-        handler.setFormatter(logging.Formatter("%(levelname)s:     %(name)s: %(message)s"))
+        handler.addFilter(RequestIdFilter())
+        handler.setFormatter(logging.Formatter("%(levelname)s:     %(name)s: [%(request_id)s] %(message)s"))
         logger.addHandler(handler)
 
 
 #: response headers a browser page on another origin may read (the .npy answers' metadata)
-EXPOSED_HEADERS = ["Location", "X-Links", "X-Joint-Names", "X-Link", "X-Reference", "X-Out-Of-Limits",
+EXPOSED_HEADERS = ["Location", "X-Request-ID", "X-Links", "X-Joint-Names", "X-Link", "X-Reference", "X-Out-Of-Limits",
                    "X-Links-Omitted", "X-Joint-Names-Omitted", "X-Verification-Reference", "X-Max-Position-Error",
                    "X-Max-Rotation-Error", "X-Max-Jacobian-Error", "X-Twist-References", "X-Max-Velocity-Error", "X-Columns"]
 
@@ -141,6 +185,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins, allow_methods=["*"],
                            allow_headers=["*"], expose_headers=EXPOSED_HEADERS)
     app.add_middleware(BodySizeLimit, limit=settings.max_request_bytes)
+    app.add_middleware(RequestContext)  # added last: outermost, so every answer carries the id
     return app
 
 

@@ -1,8 +1,56 @@
-"""ASGI middleware: the request-body size limit, enforced before any handler parses a body."""
+"""ASGI middleware: the request context (``X-Request-ID``, metrics) and the request-body size
+limit, enforced before any handler parses a body."""
 
 from __future__ import annotations
 
-from .errors import ProblemError, problem
+import re
+import time
+import uuid
+
+from . import metrics
+from .errors import REQUEST_ID, ProblemError, problem
+
+#: a client's X-Request-ID is kept when it is this safe (else a new one is generated)
+_REQUEST_ID_OK = re.compile(rb"[A-Za-z0-9._:-]{1,128}")
+
+
+class RequestContext:
+    """Outermost middleware: gives every request an id (the client's ``X-Request-ID`` when it is
+    1-128 of ``A-Za-z0-9._:-``, else a uuid4 hex), echoes it in the answer's headers, makes it
+    available to problem details and logs (:data:`app.errors.REQUEST_ID`), and counts the request
+    and its latency per route *template* (``/models/{model_id}/fk``, not the raw path; requests
+    that match no route are labelled ``unmatched``), method and status."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        given = next((v for k, v in scope.get("headers", ()) if k == b"x-request-id"), None)
+        request_id = given.decode() if given is not None and _REQUEST_ID_OK.fullmatch(given) else uuid.uuid4().hex
+        scope["request_id"] = request_id
+        REQUEST_ID.set(request_id)  # each request runs in its own context (task); not reset, so the 500 handler sees it
+        header = (b"x-request-id", request_id.encode())
+        status = 500
+        start = time.perf_counter()
+
+        async def send_with_id(message):
+            nonlocal status
+            if message["type"] == "http.response.start":
+                status = message["status"]
+                headers = [h for h in message.get("headers", ()) if h[0].lower() != b"x-request-id"]
+                message = {**message, "headers": [*headers, header]}
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_with_id)
+        finally:
+            route = scope.get("route")
+            template = getattr(route, "path", None) or "unmatched"
+            labels = (scope.get("method", ""), template, str(status))
+            metrics.REQUESTS.labels(*labels).inc()
+            metrics.LATENCY.labels(*labels).observe(time.perf_counter() - start)
 
 
 class BodySizeLimit:

@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 from kinematics import api
-from kinematics.errors import KinematicsError, UnknownModelError
+from kinematics.errors import KinematicsError, UnknownModelError, did_you_mean
 from kinematics.io import dh_table as dh
 from kinematics.io.catalogue import Catalogue
 from kinematics.io.description import load_description
@@ -263,17 +263,23 @@ class Registry:
                     self._bundled[model_id] = rec
             return rec
         if not _is_stored_id(model_id):
-            raise UnknownModelError(f"unknown model {model_id!r}")
+            raise UnknownModelError(f"unknown model {model_id!r}" + self._suggest(model_id))
         try:
             return self._load_stored(model_id)
         except FileNotFoundError:
             with self._lock:
                 self._stored.pop(model_id, None)
-            raise UnknownModelError(f"unknown model {model_id!r}") from None
+            raise UnknownModelError(f"unknown model {model_id!r}" + self._suggest(model_id)) from None
         except (OSError, ValueError) as exc:
             if not isinstance(exc, _KnownUnreadable):  # logged once per file version
                 log.warning("stored model %s is unreadable: %s", model_id, exc)
             raise UnknownModelError(f"model {model_id!r} is stored but unreadable") from None
+
+    def _suggest(self, model_id: str) -> str:
+        """"did you mean" and the valid ids (bundled, then stored), for an unknown id."""
+        with self._lock:
+            stored = list(self._stored)
+        return did_you_mean(model_id, [*self.catalogue.ids(), *stored], "model ids")
 
     def summaries(self) -> list[ModelSummary]:
         """One summary per model: bundled (catalogue order), then stored (creation order)."""

@@ -129,3 +129,25 @@ class MJCFError(URDFError):
 
 class DescriptionFormatError(URDFError):
     """A body that is none of the descriptions the product reads (URDF, xacro, MJCF, zip or gzip archive)."""
+
+
+def did_you_mean(name: object, valid, what: str = "names", limit: int = 10) -> str:
+    """A suffix for "unknown name" messages: the closest valid names and a truncated list of them.
+
+    >>> did_you_mean("elbo", ["shoulder", "elbow", "wrist"])
+    "; did you mean 'elbow'? valid names: shoulder, elbow, wrist"
+    """
+    import difflib
+
+    valid = [str(v) for v in valid]
+    if not valid:
+        return ""
+    close = difflib.get_close_matches(str(name), valid, n=3, cutoff=0.6)
+    out = ""
+    if close:
+        out = "; did you mean " + " or ".join(repr(c) for c in close) + "?"
+    else:
+        out = ";"
+    shown = ", ".join(valid[:limit])
+    more = f", ... ({len(valid)} in all)" if len(valid) > limit else ""
+    return f"{out} valid {what}: {shown}{more}"

@@ -19,6 +19,7 @@ from kinematics.io.poses import pose_count
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key
 from ..errors import ProblemError
+from ..metrics import record_ik
 from ..npy import decode_targets, names_header
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
 from ..schemas import IK_EXAMPLES, IKRequest, IKResponse, Problem
@@ -103,6 +104,7 @@ def _solve(model_id: str, options: dict[str, Any], request: Request, registry, s
                         max_ik_work=settings.max_ik_work)
     answer = api.ik(rec.model, budget=budget, **options)
     sol = answer.solution
+    record_ik(sol.success, sol.iterations)
     if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
         names = names_header(rec.model.joint_names)
         headers = {"X-Link": answer.link, **({"X-Joint-Names": names} if names is not None else

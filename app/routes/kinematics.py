@@ -22,6 +22,7 @@ from kinematics.spatial.reference import Reference
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
+from ..metrics import record_configurations
 from ..npy import decode_q, names_header
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
@@ -196,6 +197,7 @@ def _forward_kinematics(model_id: str, call: Call, request: Request, registry, s
     rec = registry.get(model_id)
     answer = api.fk(rec.model, call.q, links=call.links, base=call.base, point=call.point, tool=call.tool,
                     verify=call.verify, limits=call.limits, budget=_budget(settings))
+    record_configurations("fk", _configurations(call.q))
     verification = answer.verification
     if wants_npy(request):
         headers = _names_headers(answer.links, rec.model.joint_names)
@@ -236,6 +238,7 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
     answer = api.jacobian(rec.model, call.q, link=call.link, reference=call.reference, base=call.base,
                           point=call.point, tool=call.tool, verify=call.verify, limits=call.limits,
                           budget=_budget(settings))
+    record_configurations("jacobian", _configurations(call.q))
     J, verification = answer.jacobians, answer.verification
     if wants_npy(request):
         headers = _names_headers([answer.link], rec.model.joint_names)

@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from ..engine.poe import compile_model
-from ..errors import DHError, NoDHFormError, UnknownLinkError
+from ..errors import DHError, NoDHFormError, UnknownLinkError, did_you_mean
 from ..io.dh_table import CONVENTIONS, DHRow, DHTable
 from ..model.robot import RobotModel, frozen_array
 from ..tolerances import AGREEMENT_TOLERANCE, MAX_ABS_COORDINATE
@@ -243,7 +243,8 @@ def _chain(model: RobotModel, tip: str | None):
             )
         tip = leaves[0]
     if tip not in model.parent_joint and tip != model.root:
-        raise UnknownLinkError(f"model {model.name!r} has no link {tip!r}")
+        raise UnknownLinkError(f"model {model.name!r} has no link {tip!r}"
+                               + did_you_mean(tip, model.links, "link names"))
     path = model.path_joints(tip)
     for j in path:
         if j.mimic is not None:

@@ -57,7 +57,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 from sympy.simplify.fu import TR10i
 
-from ..errors import DHError, KinematicsError, SymbolicError, SymbolicTimeoutError, UnknownLinkError
+from ..errors import DHError, KinematicsError, SymbolicError, SymbolicTimeoutError, UnknownLinkError, did_you_mean
 from ..io import dh_table as dh
 from ..model.robot import RobotModel
 from ..tolerances import MAX_ABS_COORDINATE
@@ -574,7 +574,8 @@ def chain_tip(model: RobotModel, tip: str | None) -> str:
                                 "choose the tip of the chain")
         return model.leaf_links[0]
     if tip != model.root and tip not in model.parent_joint:
-        raise UnknownLinkError(f"model {model.name!r} has no link {tip!r}")
+        raise UnknownLinkError(f"model {model.name!r} has no link {tip!r}"
+                               + did_you_mean(tip, model.links, "link names"))
     return tip
 
 

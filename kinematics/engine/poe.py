@@ -42,7 +42,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import KinematicsError, UnknownLinkError
+from ..errors import KinematicsError, UnknownLinkError, did_you_mean
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.reference import Reference
@@ -142,7 +142,8 @@ class PoEModel:
         out = []
         for name in links:
             if name not in index:
-                raise UnknownLinkError(f"unknown link {name!r} (model {self.model.name!r} has {len(index)} links)")
+                raise UnknownLinkError(f"unknown link {name!r} (model {self.model.name!r} has {len(index)} links)"
+                                       + did_you_mean(name, self.link_names, "link names"))
             out.append(index[name])
         return np.array(out, dtype=np.intp)
 

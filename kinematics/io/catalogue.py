@@ -16,7 +16,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import UnknownModelError
+from ..errors import UnknownModelError, did_you_mean
 from ..model.robot import RobotModel
 from .dh_table import load_table, model_from_table
 from .urdf import load_urdf
@@ -112,7 +112,8 @@ class Catalogue:
         try:
             return self.entries[model_id]
         except KeyError:
-            raise UnknownModelError(f"unknown model {model_id!r}") from None
+            raise UnknownModelError(f"unknown model {model_id!r}"
+                                    + did_you_mean(model_id, self.entries, "bundled model ids")) from None
 
     def get(self, model_id: str) -> RobotModel:
         """The model of ``model_id``, parsed on first use (raises UnknownModelError, URDFError)."""

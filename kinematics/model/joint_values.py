@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import JointValueError, LimitError
+from ..errors import JointValueError, LimitError, did_you_mean
 from ..tolerances import LIMIT_TOLERANCE, MAX_ABS_JOINT_VALUE
 from .robot import RobotModel
 
@@ -23,6 +23,8 @@ def _from_map(model: RobotModel, values: Mapping, where: str) -> np.ndarray:
         mimic = [k for k in unknown if k in model.joint_map and model.joint_map[k].mimic is not None]
         if mimic:
             hint = f" ({', '.join(mimic)} {'is a mimic joint' if len(mimic) == 1 else 'are mimic joints'}, set by the leader)"
+        else:
+            hint = did_you_mean(unknown[0], model.joint_names, "joint names")
         raise JointValueError(f"{where}unknown joint name(s): {', '.join(map(str, unknown))}{hint}")
     missing = [n for n in model.joint_names if n not in values]
     if missing:

@@ -1,0 +1,222 @@
+"""Operations: ``GET /metrics`` (Prometheus), ``X-Request-ID``, "did you mean" in 404/422 problems."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+
+from kinematics.errors import did_you_mean
+
+PROBLEM = "application/problem+json"
+
+
+def sample(text: str, name: str, **labels) -> float:
+    """The value of one sample of the exposition (0 when absent)."""
+    for line in text.splitlines():
+        if line.startswith("#") or not line.startswith(name):
+            continue
+        head, _, value = line.rpartition(" ")
+        metric, _, rest = head.partition("{")
+        if metric != name:
+            continue
+        got = dict(re.findall(r'(\w+)="([^"]*)"', rest))
+        if all(got.get(k) == str(v) for k, v in labels.items()):
+            return float(value)
+    return 0.0
+
+
+# ---------------------------------------------------------------- /metrics
+def test_metrics_requests_by_route_template_and_status(api_client):
+    before = api_client.get("/metrics").text
+    api_client.post("/models/ur5/fk", json={"q": [0.0] * 6})
+    api_client.post("/models/ur3/fk", json={"q": [[0.0] * 6, [0.1] * 6]})
+    api_client.post("/models/ur5/fk", json={"q": [0.0]})  # 422
+    api_client.get("/no/such/route/12345")
+    r = api_client.get("/metrics")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/plain")
+    text = r.text
+    fk = dict(method="POST", route="/models/{model_id}/fk")
+    assert sample(text, "kin_http_requests_total", **fk, status=200) - \
+        sample(before, "kin_http_requests_total", **fk, status=200) == 2
+    assert sample(text, "kin_http_requests_total", **fk, status=422) - \
+        sample(before, "kin_http_requests_total", **fk, status=422) == 1
+    assert sample(text, "kin_http_request_duration_seconds_count", **fk, status=200) - \
+        sample(before, "kin_http_request_duration_seconds_count", **fk, status=200) == 2
+    # raw paths never become labels: one template for every model id, one label for unmatched paths
+    assert "/models/ur5/fk" not in text and "/no/such/route" not in text
+    assert sample(text, "kin_http_requests_total", method="GET", route="unmatched", status=404) >= 1
+    assert sample(text, "kin_configurations_total", operation="fk") - \
+        sample(before, "kin_configurations_total", operation="fk") == 3
+
+
+def test_metrics_ik_outcomes_and_iterations(api_client):
+    before = api_client.get("/metrics").text
+    fk = api_client.post("/models/ur5/fk", json={"q": [0.3, -1.0, 1.2, -0.5, 0.4, 0.2], "links": ["tool0"]}).json()
+    reachable = fk["poses"]["tool0"]["matrix"]
+    far = [[1, 0, 0, 10.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    body = {"link": "tool0", "target": [reachable, far], "restarts": 0}
+    r = api_client.post("/models/ur5/ik", json=body)
+    assert r.status_code == 200, r.text
+    success = r.json()["success"]
+    text = api_client.get("/metrics").text
+
+    def delta(name, **labels):
+        return sample(text, name, **labels) - sample(before, name, **labels)
+
+    assert delta("kin_ik_targets_total", outcome="success") == sum(success)
+    assert delta("kin_ik_targets_total", outcome="failure") == len(success) - sum(success) >= 1
+    assert delta("kin_ik_iterations_count") == len(success)
+    assert delta("kin_ik_iterations_sum") == sum(r.json()["iterations"])
+    assert delta("kin_configurations_total", operation="ik") == len(success)
+
+
+def test_metrics_multiprocess_mode(tmp_path):
+    """With PROMETHEUS_MULTIPROC_DIR, /metrics aggregates the values every process wrote there."""
+    code = """
+import os
+from fastapi.testclient import TestClient
+from app.main import create_app
+from app.settings import Settings
+with TestClient(create_app(Settings(data_dir=os.environ['DATA']))) as c:
+    for _ in range(3):
+        assert c.get('/health').status_code == 200
+    print(c.get('/metrics').text)
+"""
+    env = {"PROMETHEUS_MULTIPROC_DIR": str(tmp_path / "prom"), "DATA": str(tmp_path / "data"),
+           "PATH": "/usr/bin:/bin"}
+    (tmp_path / "prom").mkdir()
+    (tmp_path / "data").mkdir()
+    outs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+            for _ in range(2)]  # two "workers", one after the other, sharing the directory
+    health = dict(method="GET", route="/health", status=200)
+    assert sample(outs[0], "kin_http_requests_total", **health) == 3
+    assert sample(outs[1], "kin_http_requests_total", **health) == 6  # the first worker's counts included
+    assert list((tmp_path / "prom").glob("*.db"))
+
+
+# ---------------------------------------------------------------- X-Request-ID
+def test_request_id_generated_and_echoed(api_client):
+    a, b = api_client.get("/health"), api_client.get("/health")
+    for r in (a, b):
+        assert re.fullmatch(r"[0-9a-f]{32}", r.headers["x-request-id"])
+    assert a.headers["x-request-id"] != b.headers["x-request-id"]
+
+
+def test_request_id_kept_and_in_problem_details(api_client):
+    r = api_client.get("/health", headers={"X-Request-ID": "pipeline-42.step:7"})
+    assert r.headers["x-request-id"] == "pipeline-42.step:7"
+    r = api_client.get("/models/nope", headers={"X-Request-ID": "abc-123"})
+    assert r.status_code == 404 and r.headers["content-type"] == PROBLEM
+    assert r.headers["x-request-id"] == "abc-123" and r.json()["request_id"] == "abc-123"
+    r = api_client.post("/models/ur5/fk", json={"q": "x"})
+    assert r.status_code == 422 and r.json()["request_id"] == r.headers["x-request-id"]
+    # the body-size middleware's own answers too
+    r = api_client.post("/models/ur5/fk", content=b"{}", headers={"Content-Length": "10000000000"})
+    assert r.status_code == 413 and r.json()["request_id"] == r.headers["x-request-id"]
+
+
+def test_unsafe_request_id_is_replaced(api_client):
+    r = api_client.get("/health", headers={"X-Request-ID": "bad id\twith spaces" + "x" * 200})
+    assert re.fullmatch(r"[0-9a-f]{32}", r.headers["x-request-id"])
+
+
+def test_request_id_in_500_and_its_log(api_data_dir, caplog):
+    from fastapi.testclient import TestClient
+
+    from app.main import create_app
+    from app.settings import Settings
+
+    app = create_app(Settings(data_dir=api_data_dir))
+    with TestClient(app, raise_server_exceptions=False) as c:
+        def broken(model_id):
+            raise RuntimeError("simulated bug")
+
+        app.state.registry.get = broken
+        r = c.get("/models/ur5", headers={"X-Request-ID": "trace-500"})
+    assert r.status_code == 500
+    assert r.headers["x-request-id"] == "trace-500" and r.json()["request_id"] == "trace-500"
+    assert "trace-500" in caplog.text
+
+
+def test_request_id_log_filter():
+    import logging
+
+    from app.errors import REQUEST_ID, RequestIdFilter
+
+    record = logging.LogRecord("app", logging.INFO, __file__, 1, "m", None, None)
+    token = REQUEST_ID.set("rid-1")
+    try:
+        assert RequestIdFilter().filter(record) and record.request_id == "rid-1"
+    finally:
+        REQUEST_ID.reset(token)
+
+
+# ---------------------------------------------------------------- did you mean
+def test_did_you_mean_helper():
+    assert did_you_mean("elbo", ["shoulder", "elbow"]) == "; did you mean 'elbow'? valid names: shoulder, elbow"
+    assert did_you_mean("zzz", ["a", "b"], "ids") == "; valid ids: a, b"
+    long = did_you_mean("q", [f"n{i}" for i in range(30)], limit=5)
+    assert long.endswith("n4, ... (30 in all)")
+    assert did_you_mean("x", []) == ""
+
+
+def test_unknown_model_suggests(api_client):
+    r = api_client.get("/models/ur6")
+    assert r.status_code == 404
+    detail = r.json()["detail"]
+    assert detail.startswith("unknown model 'ur6'") and "did you mean 'ur5'" in detail and "valid model ids:" in detail
+    assert "in all)" in detail  # the list is truncated
+
+
+def test_unknown_link_suggests(api_client):
+    r = api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "links": ["tool_0"]})
+    assert r.status_code == 404
+    body = r.json()
+    assert body["detail"].startswith("unknown link 'tool_0'") and "did you mean 'tool0'" in body["detail"]
+    assert body["link"] == "tool_0"
+
+
+def test_unknown_joint_suggests(api_client):
+    q = {"shoulder_pan_joint": 0, "shoulder_lift_joint": 0, "elbo_joint": 0, "wrist_1_joint": 0,
+         "wrist_2_joint": 0, "wrist_3_joint": 0}
+    r = api_client.post("/models/ur5/fk", json={"q": q})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert "unknown joint name(s): elbo_joint" in detail and "did you mean 'elbow_joint'" in detail
+    assert "valid joint names: shoulder_pan_joint" in detail
+
+
+# ---------------------------------------------------------------- OpenAPI truth
+def _ops(doc):
+    return {(m, p): op for p, item in doc["paths"].items() for m, op in item.items()}
+
+
+@pytest.mark.parametrize("settings, secured", [
+    ({}, set()),
+    ({"api_key": "k"}, {"write"}),
+    ({"api_key": "k", "api_key_for_reads": True}, {"write", "read"}),
+])
+def test_openapi_declares_security_as_configured(make_client, settings, secured):
+    doc = make_client(**settings).get("/openapi.json").json()
+    ops = _ops(doc)
+    write = ops[("delete", "/models/{model_id}")]
+    read = ops[("post", "/models/{model_id}/fk")]
+    assert bool(write.get("security")) == ("write" in secured)
+    assert bool(read.get("security")) == ("read" in secured)
+    for op, kind in ((write, "write"), (read, "read")):
+        assert ("401" in op["responses"]) == (kind in secured)
+        assert ("403" in op["responses"]) == (kind in secured)
+    assert ("securitySchemes" in doc.get("components", {})) == bool(secured)
+    assert not ops[("get", "/health")].get("security") and not ops[("get", "/metrics")].get("security")
+
+
+def test_openapi_documents_405_on_bundled_delete_and_422_on_dh_of_a_tree(api_client):
+    ops = _ops(api_client.get("/openapi.json").json())
+    assert "405" in ops[("delete", "/models/{model_id}")]["responses"]
+    assert "422" in ops[("get", "/models/{model_id}/dh")]["responses"]
+    assert api_client.delete("/models/ur5").status_code == 405
+    tree = next(m["id"] for m in api_client.get("/models").json() if m["id"] in ("talos", "romeo", "icub", "baxter"))
+    assert api_client.get(f"/models/{tree}/dh").status_code == 422
