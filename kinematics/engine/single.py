@@ -202,11 +202,18 @@ def fk_function(poe, links, tool: np.ndarray | None = None):
     D = with_tool(plan.pose, None if tool is None else np.asarray(tool, dtype=np.float64))
     dof = poe.dof
     itab, ftab = _tables(kernel, plan.order, 0, plan.lj, D, dof)
-    shape = (4, 4) if one else (len(idx), 4, 4)
-    local, mine = _per_thread(ftab)
-    ndarray, f64, empty, qshape, entry = np.ndarray, np.dtype(np.float64), np.empty, (dof,), fk_one
+    fk = _bind(fk_one, itab, ftab, (4, 4) if one else (len(idx), 4, 4), dof)
+    fk.__doc__ = f"Pose(s) {(4, 4) if one else (len(idx), 4, 4)} of {links!r} of model {poe.model.name!r} for one q ({dof} values)."
+    return fk
 
-    def fk(q, out=None):
+
+def _bind(entry, itab, ftab, shape, dof):
+    """``f(q, out=None)`` calling the compiled ``entry`` on pre-bound tables, with each thread's
+    own scratch copy of ``ftab`` (the hot path: no lookup beyond the ones below)."""
+    local, mine = _per_thread(ftab)
+    ndarray, f64, empty, qshape = np.ndarray, np.dtype(np.float64), np.empty, (dof,)
+
+    def call(q, out=None):
         if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape:
             q = _coerce(q, dof)
         try:
@@ -218,8 +225,7 @@ def fk_function(poe, links, tool: np.ndarray | None = None):
         entry(itab, f, out, q)
         return out
 
-    fk.__doc__ = f"Pose(s) {shape} of {links!r} of model {poe.model.name!r} for one q ({dof} values)."
-    return fk
+    return call
 
 
 def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray | None = None):
@@ -235,21 +241,6 @@ def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray
     D = with_tool(D, None if tool is None else np.asarray(tool, dtype=np.float64))
     dof = poe.dof
     itab, ftab = _tables(kernel, path, ref, [], D, dof)
-    shape = (6, dof)
-    local, mine = _per_thread(ftab)
-    ndarray, f64, empty, qshape, entry = np.ndarray, np.dtype(np.float64), np.empty, (dof,), jacobian_one
-
-    def jacobian(q, out=None):
-        if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape:
-            q = _coerce(q, dof)
-        try:
-            f = local.ftab
-        except AttributeError:
-            f = mine()
-        if out is None:
-            out = empty(shape)
-        entry(itab, f, out, q)
-        return out
-
+    jacobian = _bind(jacobian_one, itab, ftab, (6, dof), dof)
     jacobian.__doc__ = f"Jacobian (6, {dof}) of {link!r} ({reference}) of model {poe.model.name!r} for one q."
     return jacobian
