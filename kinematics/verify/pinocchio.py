@@ -259,3 +259,48 @@ def compare_velocity(model: RobotModel, Q: np.ndarray, Qd: np.ndarray, links=Non
             for reference in references:
                 err = max(err, float(np.max(np.abs(twists[reference][n, k] - theirs[link][reference]))))
     return err
+
+
+def compare_mjcf(model: RobotModel, path, Q: np.ndarray, skip=frozenset()) -> tuple[float, int]:
+    """Largest deviation of our FK (a model read from the MJCF file ``path``) from Pinocchio's own
+    MJCF reader (``buildModelFromMJCF``) over the batch ``Q``, on every body both know, and the
+    number of bodies compared (in the frame of the first body when it is fixed: Pinocchio's reader
+    places that body at its world origin). Joints are matched by name; Pinocchio's q of a joint with
+    ``nq == 2`` (unbounded revolute) is ``(cos, sin)``."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    try:
+        pm = pin.buildModelFromMJCF(str(path))
+    except Exception as exc:  # noqa: BLE001 -- Pinocchio's reader raises plain RuntimeErrors
+        raise ReferenceUnavailableError(f"Pinocchio cannot read {path}: {exc}") from exc
+    data = pm.createData()
+    bodies = {f.name: i for i, f in enumerate(pm.frames) if f.type == pin.FrameType.BODY and f.name in model.links}
+    root = next(iter(bodies), None)
+    links = [root] + [b for b in bodies if b != root and b not in skip] if root is not None else []
+    ours = compile_model(model).fk(Q, links)
+    # Pinocchio's reader makes the first body the root of its model: that body's own pose in the
+    # world is dropped, so a fixed root body is where both are compared from.
+    if root is not None and pm.frames[bodies[root]].parentJoint == 0:
+        ours = np.linalg.inv(ours[:, :1]) @ ours
+    worst = 0.0
+    for n, q in enumerate(Q):
+        qp = pin.neutral(pm)
+        for jid in range(1, pm.njoints):
+            name, joint = pm.names[jid], pm.joints[jid]
+            qp[joint.idx_q:joint.idx_q + joint.nq] = _mjcf_joint_q(model, q, name, joint.nq, joint.nv)
+        pin.framesForwardKinematics(pm, data, qp)
+        for k, link in enumerate(links):
+            worst = max(worst, float(np.max(np.abs(ours[n, k] - data.oMf[bodies[link]].homogeneous))))
+    return worst, len(links)
+
+
+def _mjcf_joint_q(model: RobotModel, q: np.ndarray, name: str, nq: int, nv: int) -> list[float]:
+    """Pinocchio's q of one joint of its MJCF model: a hinge or slide (``nq == 1``), an unbounded
+    hinge (``(cos, sin)``), or the composite joint that a body with several joints becomes
+    (``Composite_<first joint>``: the body's joints, consecutive in document order)."""
+    if name.startswith("Composite_") and name not in model.q_index:
+        first = model.q_index[name[len("Composite_"):]]
+        if nq != nv:
+            raise ReferenceUnavailableError(f"composite joint {name!r} holds unbounded joints")
+        return list(q[first:first + nq])
+    value = q[model.q_index[name]]
+    return [value] if nq == 1 else [np.cos(value), np.sin(value)]
