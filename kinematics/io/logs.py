@@ -31,7 +31,7 @@ from ..model.robot import RobotModel
 from ..spatial.rotations import matrix_to_quaternion
 from ..spatial.transforms import inverse_transform
 from ..tolerances import MAX_ABS_JOINT_VALUE
-from .trajectory import CHUNK_ROWS, TrajectoryFileError
+from .trajectory import CHUNK_ROWS, AtomicOutput, TrajectoryFileError, drop_file, part_file
 
 #: the ROS message type of joint states (rosbags' name, ROS 1 bags included)
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -189,7 +189,7 @@ def open_log(path, model: RobotModel, topic: str | None = None, skip_incomplete:
 
 
 # ============================================================================ TF out
-class TFWriter:
+class TFWriter(AtomicOutput):
     """Writes FK of every link as a TF tree to an MCAP file (see the module).
 
     ``write(poses, times)``: ``poses`` (n, L, 4, 4) ``T_root_link`` of every link of the
@@ -206,11 +206,8 @@ class TFWriter:
         self.model = model
         self.rows = 0
         self._dest = str(dest)
-        self._tmp = self._dest + ".part"
-        try:
-            self._fh = open(self._tmp, "wb")
-        except OSError as exc:
-            raise TrajectoryFileError(f"{self._dest}: cannot write: {exc.strerror or exc}") from None
+        fd, self._tmp = part_file(self._dest, self._dest)
+        self._fh = os.fdopen(fd, "wb")
         self._ts = get_typestore(Stores.LATEST)
         self._types = self._ts.types
         index = {l: i for i, l in enumerate(model.links)}
@@ -231,15 +228,6 @@ class TFWriter:
                                                data=self._ts.generate_msgdef(ps, ros_version=2)[0].encode())
             self._poses = [self._writer.register_channel(topic=f"/pose/{l}", message_encoding="cdr", schema_id=pid)
                            for l in model.links]
-
-    def __enter__(self) -> "TFWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
 
     def write(self, poses: np.ndarray, times) -> None:
         poses = np.asarray(poses, dtype=np.float64)
@@ -299,10 +287,7 @@ class TFWriter:
             return
         self._fh.close()
         self._fh = None
-        try:
-            os.unlink(self._tmp)
-        except FileNotFoundError:
-            pass
+        drop_file(self._tmp)
 
 
 def is_mcap_output(path) -> bool:

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import glob as _glob
 import os
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -47,10 +46,13 @@ from .trajectory import (
     CHUNK_ROWS,
     IK_STATUS_COLUMNS,
     POSE_COLUMNS,
+    AtomicOutput,
     TrajectoryFileError,
+    drop_file,
     fk_columns,
     fk_table,
     jacobian_columns,
+    part_file,
 )
 
 #: default name of the time column (read when present, carried to the output)
@@ -289,7 +291,7 @@ def result_columns(kind: str, chunk, labels) -> dict[str, np.ndarray]:
     return {name: T[k] for k, name in enumerate(names)}
 
 
-class ParquetResultWriter:
+class ParquetResultWriter(AtomicOutput):
     """Writes result chunks to a Parquet file, one row group per chunk (see the module for the
     columns), atomically: a temporary file renamed on :meth:`close`; on an exception inside a
     ``with`` block the partial file is removed. ``time_field``: the input's time column (a
@@ -303,23 +305,10 @@ class ParquetResultWriter:
         self.rows = 0
         self._dest = str(dest)
         self.name = name or self._dest
-        folder = os.path.dirname(os.path.abspath(self._dest))
-        try:
-            fd, self._tmp = tempfile.mkstemp(prefix=f".{os.path.basename(self._dest)}.", suffix=".part", dir=folder)
-        except OSError as exc:
-            raise TrajectoryFileError(f"{self.name}: cannot write: {exc.strerror or exc}") from None
+        fd, self._tmp = part_file(self._dest, self.name)
         os.close(fd)
         self._writer = None
         self._schema = None
-
-    def __enter__(self) -> "ParquetResultWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
 
     def _table(self, chunk, times):
         pa, _ = _pa()
@@ -357,7 +346,6 @@ class ParquetResultWriter:
             self._writer = pq.ParquetWriter(self._tmp, empty.schema, **WRITE_OPTIONS)
             self._writer.write_table(empty)
         self._writer.close()
-        os.chmod(self._tmp, 0o666 & ~_umask())
         os.replace(self._tmp, self._dest)
         self._tmp = None
 
@@ -382,17 +370,8 @@ class ParquetResultWriter:
             except Exception:  # noqa: BLE001 - dropping it anyway
                 pass
         if self._tmp is not None:
-            try:
-                os.unlink(self._tmp)
-            except FileNotFoundError:
-                pass
+            drop_file(self._tmp)
             self._tmp = None
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
 
 
 def is_parquet_output(path) -> bool:

@@ -725,7 +725,42 @@ def fk_table(T: np.ndarray) -> np.ndarray:
     return out.reshape(n, 7 * L)
 
 
-class ResultWriter:
+class AtomicOutput:
+    """The ``with`` protocol of the output writers: finished (:meth:`close`, which renames the
+    temporary file into place) when the block ends normally, dropped (:meth:`abort`) on an
+    exception, so a destination never holds half an answer."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def part_file(dest: str, name: str) -> tuple[int, str]:
+    """``(fd, path)`` of a new temporary file beside ``dest`` (``.<basename>.*.part``), with the
+    usual permissions; an unwritable folder is a :class:`TrajectoryFileError` naming ``name``."""
+    folder = os.path.dirname(os.path.abspath(dest))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(dest)}.", suffix=".part", dir=folder)
+    except OSError as exc:
+        raise TrajectoryFileError(f"{name}: cannot write: {exc.strerror or exc}") from None
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
+    return fd, tmp
+
+
+def drop_file(path: str) -> None:
+    """Remove a partial output (already gone is fine)."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
+class ResultWriter(AtomicOutput):
     """Writes result chunks to a file (atomically: a temporary file renamed on success) or a stream.
 
     ``kind`` is ``fk`` (chunks (n, L, 4, 4), ``labels`` the link names), ``jacobian``
@@ -746,12 +781,7 @@ class ResultWriter:
         if isinstance(dest, (str, os.PathLike)):
             self._dest = str(dest)
             self.name = name or self._dest
-            folder = os.path.dirname(os.path.abspath(self._dest))
-            try:
-                fd, self._tmp = tempfile.mkstemp(prefix=f".{os.path.basename(self._dest)}.", suffix=".part", dir=folder)
-            except OSError as exc:
-                raise TrajectoryFileError(f"{self.name}: cannot write: {exc.strerror or exc}") from None
-            os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
+            fd, self._tmp = part_file(self._dest, self.name)
             self._fh = os.fdopen(fd, "wb" if fmt == "npy" else "w", **({} if fmt == "npy" else {"encoding": "utf-8", "newline": "\n"}))
         else:
             if fmt == "npy":
@@ -773,15 +803,6 @@ class ResultWriter:
             else:
                 cols = jacobian_columns(len(self.labels)) if self.kind == "jacobian" else ik_columns(self.labels)
             self._fh.write(",".join(cols) + "\n")
-
-    def __enter__(self) -> "ResultWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
 
     def write(self, chunk) -> None:
         """Append a chunk of results: (n, L, 4, 4) for FK, (n, 6, dof) for Jacobians, an IK solution
@@ -859,10 +880,7 @@ class ResultWriter:
             try:
                 self._fh.close()
             finally:
-                try:
-                    os.unlink(self._tmp)
-                except FileNotFoundError:
-                    pass
+                drop_file(self._tmp)
                 self._tmp = None
         self._fh = None
 
