@@ -186,3 +186,63 @@ def require_within_limits(model: RobotModel, Q: np.ndarray) -> None:
 def _joint_of_entry(model: RobotModel) -> list[str]:
     """The joint name of each entry of q."""
     return [s.name for s in model.layout for _ in range(s.nq)]
+
+
+def as_velocity_batch(model: RobotModel, qdot) -> tuple[np.ndarray, bool]:
+    """``(Qd, is_batch)``: joint velocities as a finite float64 array (N, nv) -- a vector in the
+    velocity layout (:attr:`RobotModel.layout` v slices), a ``{joint: value}`` map (a floating joint's
+    value 6 numbers, its twist ``vx, vy, vz, wx, wy, wz`` in its own frame; a planar joint's 3,
+    ``vx, vy, wz``), or a list of either (a batch)."""
+    labels = model.v_labels
+
+    def from_map(values: Mapping, where: str) -> np.ndarray:
+        unknown = [k for k in values if k not in model.slot]
+        if unknown:
+            raise JointValueError(f"{where}unknown joint name(s): {', '.join(map(str, unknown))}"
+                                  + did_you_mean(str(unknown[0]), model.joint_names, "joint names"))
+        missing = [n for n in model.joint_names if n not in values]
+        if missing:
+            raise JointValueError(f"{where}missing value(s) for joint(s): {', '.join(missing)}")
+        out = np.empty(model.nv)
+        for s in model.layout:
+            v = values[s.name]
+            if s.nv == 1:
+                out[s.v_start] = _scalar(v, where, s.name)
+            elif not isinstance(v, Sequence) or isinstance(v, (str, bytes)) or len(v) != s.nv:
+                raise JointValueError(f"{where}joint {s.name!r} is a {s.type} joint: give {s.nv} velocities, got {v!r}")
+            else:
+                out[s.v_slice] = [_scalar(x, where, s.name) for x in v]
+        return out
+
+    def from_seq(values: Sequence, where: str) -> np.ndarray:
+        if len(values) != model.nv:
+            raise JointValueError(f"{where}expected {model.nv} joint velocities (in the order {list(labels)}), "
+                                  f"got {len(values)}")
+        return np.array([_scalar(v, where, labels[i]) for i, v in enumerate(values)], dtype=float)
+
+    if isinstance(qdot, np.ndarray):
+        if qdot.dtype.kind not in "fiu" or qdot.ndim not in (1, 2):
+            raise JointValueError(f"joint velocities must be a vector or an (N, {model.nv}) array of numbers")
+        Qd, batch = np.atleast_2d(qdot).astype(float), qdot.ndim == 2
+        if Qd.shape[1] != model.nv:
+            raise JointValueError(f"expected {model.nv} joint velocities per configuration, got {Qd.shape[1]}")
+    elif isinstance(qdot, Mapping):
+        Qd, batch = from_map(qdot, "")[None, :], False
+    elif isinstance(qdot, Sequence) and not isinstance(qdot, (str, bytes)):
+        if qdot and all(isinstance(x, Mapping) or (isinstance(x, Sequence) and not isinstance(x, (str, bytes)))
+                        for x in qdot):
+            rows = [from_map(x, f"configuration {i}: ") if isinstance(x, Mapping) else from_seq(x, f"configuration {i}: ")
+                    for i, x in enumerate(qdot)]
+            Qd, batch = np.array(rows, dtype=float).reshape(len(rows), model.nv), True
+        else:
+            Qd, batch = from_seq(qdot, "")[None, :], False
+    else:
+        raise JointValueError(f"joint velocities must be a list of numbers, a name map or a list of those, "
+                              f"got {type(qdot).__name__}")
+    bad = ~np.isfinite(Qd) | (np.abs(Qd) > MAX_ABS_JOINT_VALUE)
+    if bad.any():
+        n, j = map(int, np.argwhere(bad)[0])
+        where = f"configuration {n}, " if batch else ""
+        raise JointValueError(f"{where}joint {labels[j]!r}: velocity {Qd[n, j]:g} is not finite or beyond "
+                              f"+-{MAX_ABS_JOINT_VALUE:g}")
+    return Qd, batch

@@ -82,3 +82,18 @@ def se3_exp(xi: np.ndarray) -> np.ndarray:
     T[..., :3, 3] = (V @ v[..., None])[..., 0]
     T[..., 3, 3] = 1.0
     return T
+
+
+def so3_log(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) of rotations (..., 3, 3), angle in [0, π] (through the unit
+    quaternion, so accurate near 0 and near a half turn).
+
+    >>> so3_log(so3_exp(np.array([0.3, -0.2, 0.1]))).round(12)
+    array([ 0.3, -0.2,  0.1])
+    """
+    q = matrix_to_quaternion(R)  # (w, x, y, z), w >= 0
+    v = q[..., 1:]
+    s = np.linalg.norm(v, axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 0])
+    scale = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    return v * scale[..., None]
