@@ -33,7 +33,7 @@ from .algorithms.measures import conditioning
 from .algorithms.velocity import twists_in_world, velocities as _velocities
 from .algorithms import workspace as _workspace
 from .engine.poe import compile_model, require_one_dof
-from .errors import BudgetError, JointValueError, KinematicsError
+from .errors import BudgetError, ConfigurationNormError, JointValueError, KinematicsError
 from .io.catalogue import default_catalogue
 from .io.dh_table import load_table, model_from_table
 from .io.floating import with_floating_base
@@ -170,6 +170,13 @@ def _pose_values(model: RobotModel, q: Any) -> Any:
         return [floating_joint_values(x, floating, f"configuration {i}: ") if isinstance(x, dict) else x
                 for i, x in enumerate(q)]
     return q
+
+
+def _prefixed(exc: JointValueError, prefix: str) -> JointValueError:
+    """The same error (class and joint) with ``prefix`` before its message."""
+    if isinstance(exc, ConfigurationNormError):
+        return ConfigurationNormError(f"{prefix}{exc}", joint=exc.joint)
+    return JointValueError(f"{prefix}{exc}")
 
 
 def joint_batch(model: RobotModel, q: Any, budget: Budget = UNBOUNDED,
