@@ -334,7 +334,7 @@ def velocity(model: RobotModel, q: Any, qdot: Any, *, links: Sequence[str] | str
         else:
             Qd, qd_batch = joint_batch(model, qdot, budget)
     except JointValueError as exc:
-        raise JointValueError(f"qdot: {exc}") from None
+        raise _prefixed(exc, "qdot: ") from None
     N = Q.shape[0]
     if Qd.shape[0] != N or qd_batch != is_batch:
         raise JointValueError(f"qdot: {Qd.shape[0]} velocity vector(s) for {N} configuration(s) of q: give one per "
@@ -403,7 +403,7 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
         try:
             S, _ = as_batch(model, _pose_values(model, seed), normalize)
         except JointValueError as exc:
-            raise JointValueError(f"seed: {exc}") from None
+            raise _prefixed(exc, "seed: ") from None
         if S.shape[0] not in (1, N):
             raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
         seeds = S
