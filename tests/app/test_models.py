@@ -116,7 +116,7 @@ def test_upload_json_name_and_bad_urdf(api_client):
                             b"<joint name='j' type='fixed'><parent link='a'/><child link='c'/></joint></robot>",
                             headers={"content-type": "application/xml"})
     assert cycle.status_code == 422 and "'c'" in cycle.json()["detail"]
-    planar = TWO_LINK_URDF.replace('type="revolute"', 'type="planar"', 1)
+    planar = TWO_LINK_URDF.replace('type="revolute"', 'type="planar"', 1).replace('xyz="0 0 1"', 'xyz="1 0 0"', 1)
     r = api_client.post("/models", content=planar, headers={"content-type": "application/xml"})
     assert r.status_code == 422 and "planar joint" in r.json()["detail"]
     bomb = ('<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "aaaa"><!ENTITY b "&a;&a;&a;">]>'
