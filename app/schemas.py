@@ -17,7 +17,10 @@ Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolea
 Vector = list[float]
 Matrix = list[list[float]]
 JointVector = list[Number]
-JointMap = dict[str, Number]
+#: a joint's value in a name map: a number; a floating joint 7 numbers (x, y, z, qx, qy, qz, qw) or a pose
+#: object ({"position", "quaternion"}, {"xyz", "rpy"}, a 4x4 matrix); a planar joint 4 (x, y, cos, sin)
+JointMapValue = Union[Number, list[Number], list[list[Number]], dict[str, Any]]
+JointMap = dict[str, JointMapValue]
 #: q as the contract allows it: a vector in joint_names order, a name map, or a list of those (a batch)
 JointValues = Union[JointVector, JointMap, list[JointVector], list[JointMap]]
 
@@ -65,7 +68,7 @@ class MimicOut(BaseModel):
 
 class JointInfo(BaseModel):
     name: str
-    type: Literal["revolute", "continuous", "prismatic", "fixed"]
+    type: Literal["revolute", "continuous", "prismatic", "fixed", "floating", "planar"]
     axis: Vector = Field(description="unit axis in the joint frame")
     parent: str
     child: str
@@ -78,7 +81,16 @@ class ModelInfo(BaseModel):
     id: str
     name: str
     source: str
-    dof: int
+    dof: int = Field(description="degrees of freedom: the length of the velocity vector (nv) and the Jacobians' "
+                                 "columns; for models of one-dof joints also the length of q")
+    nq: int = Field(default=0, description="length of q (7 per floating joint, 4 per planar joint, 1 per other joint)")
+    nv: int = Field(default=0, description="length of the velocity vector and the Jacobians' columns (6 per floating "
+                                           "joint, 3 per planar joint, 1 per other joint)")
+    q_layout: list[dict[str, Any]] = Field(
+        default_factory=list, description="per joint of q, in order: name, type, q [start, stop) and v [start, stop) "
+                                          "(floating: x, y, z, qx, qy, qz, qw and vx..wz in its child frame; "
+                                          "planar: x, y, cos, sin and vx, vy, wz)")
+    floating_base: bool = Field(default=False, description="the model as computed with floating_base: true")
     root: str
     joint_names: list[str] = Field(description="the order of q")
     links: list[str]
@@ -267,6 +279,14 @@ _TOOL_DESC = ("T_link_tool, a tool frame fixed to the link: {\"xyz\", \"rpy\"}, 
               "local also turns into its axes); IK targets are its poses. Not with point")
 
 
+_FLOATING_BASE_DESC = ("compute with the model on a free-flyer root joint 'root_joint' above its root link (as "
+                       "Pinocchio's buildModelFromUrdf(path, JointModelFreeFlyer())): q starts with x, y, z, qx, qy, "
+                       "qz, qw of the root link in the world, velocities and Jacobian columns with its twist (6, "
+                       "linear first, in the root link's frame)")
+_NORMALIZE_DESC = ("scale floating joints' quaternions and planar joints' (cos, sin) to unit norm instead of "
+                   "refusing them (422) when their norm is off 1 by more than 1e-6")
+
+
 class FKRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     q: JointValues = Field(description=_Q_DESC)
@@ -281,6 +301,8 @@ class FKRequest(BaseModel):
         default="pose",
         description="pose: matrix, position, quaternion, rpy per link; matrix: the 4x4 only; "
                     "compact: per link positions (N,3) and quaternions (N,4, w first) arrays")
+    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class FKResponse(BaseModel):
@@ -307,6 +329,8 @@ class JacobianRequest(BaseModel):
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
+    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class JacobianResponse(BaseModel):
@@ -351,6 +375,8 @@ class IKRequest(BaseModel):
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
     verify: bool = Field(default=False, description="also Pinocchio's FK of every answer, against its target")
+    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class IKVerification(BaseModel):
@@ -384,6 +410,8 @@ class VelocityRequest(BaseModel):
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC + " The base is at rest.")
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
+    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class Twists(BaseModel):

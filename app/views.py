@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from kinematics.io.floating import with_floating_base
 from kinematics.model.robot import Joint
 from kinematics.spatial.transforms import pose_components
 
@@ -24,10 +25,11 @@ def joint_info(joint: Joint) -> dict:
     }
 
 
-def model_info(rec: ModelRecord) -> dict:
-    m = rec.model
+def model_info(rec: ModelRecord, floating_base: bool = False) -> dict:
+    m = with_floating_base(rec.model) if floating_base else rec.model
     return {
-        "id": rec.id, "name": rec.name, "source": rec.source, "dof": m.dof, "root": m.root,
+        "id": rec.id, "name": rec.name, "source": rec.source, "dof": m.dof, "nq": m.nq, "nv": m.nv,
+        "q_layout": [s.as_dict() for s in m.layout], "floating_base": floating_base, "root": m.root,
         "joint_names": list(m.joint_names), "links": list(m.links), "leaf_links": list(m.leaf_links),
         "joints": [joint_info(j) for j in m.joints], "warnings": list(m.warnings),
         "urdf_sha256": m.content_hash, "created": rec.created, "dh_table": rec.dh_table,

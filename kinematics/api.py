@@ -32,13 +32,15 @@ from .algorithms.jacobian import jacobian as _jacobian
 from .algorithms.measures import conditioning
 from .algorithms.velocity import twists_in_world, velocities as _velocities
 from .algorithms import workspace as _workspace
-from .engine.poe import compile_model
-from .errors import BudgetError, JointValueError, KinematicsError
+from .engine.poe import compile_model, require_one_dof
+from .errors import BudgetError, ConfigurationNormError, JointValueError, KinematicsError
 from .io.catalogue import default_catalogue
 from .io.dh_table import load_table, model_from_table
-from .io.poses import base_poses, pose_list, tool_offset
+from .io.floating import with_floating_base
+from .io.poses import base_poses, floating_joint_values, pose_list, tool_offset
 from .io.urdf import load_urdf, parse_urdf
-from .model.joint_values import as_batch, limit_violations, out_of_limits, require_within_limits
+from .model.joint_values import (as_batch, as_velocity_batch, limit_violations, out_of_limits,
+                                 require_within_limits)
 from .model.robot import RobotModel
 from .spatial.reference import Reference
 from .spatial.transforms import inverse_transform, pose_components
@@ -111,10 +113,17 @@ class Verification:
         return {k: v for k, v in self.__dict__.items() if v is not None}
 
 
+def model_for(model: RobotModel, floating_base: bool = False) -> RobotModel:
+    """The model a request computes with: ``model``, or with ``floating_base`` the same robot on a
+    free-flyer root joint ``root_joint`` (:func:`kinematics.io.floating.with_floating_base`, cached:
+    ``q = (x, y, z, qx, qy, qz, qw, q...)``, Jacobians of 6 + n columns)."""
+    return with_floating_base(model) if floating_base else model
+
+
 @dataclass(frozen=True, eq=False)
 class _Answer:
     model: RobotModel
-    Q: np.ndarray  # (N, dof), the validated joint values
+    Q: np.ndarray  # (N, nq), the validated joint values (nq = dof for models of one-dof joints)
     is_batch: bool  # the request gave a list of configurations (not one vector or map)
 
     def out_of_limits(self) -> list[list[str]]:
@@ -149,13 +158,38 @@ class JacobianAnswer(_Answer):
         return conditioning(self.jacobians)
 
 
-def joint_batch(model: RobotModel, q: Any, budget: Budget = UNBOUNDED) -> tuple[np.ndarray, bool]:
-    """``(Q (N, dof), is_batch)`` of joint values as a request gives them, within ``budget``.
+def _pose_values(model: RobotModel, q: Any) -> Any:
+    """Name maps with a floating joint given as a pose object (``{"position", "quaternion"}``,
+    ``{"xyz", "rpy"}`` or a 4x4 matrix) -> the same maps with its 7 values (other forms unchanged)."""
+    if not model.multi_dof:
+        return q
+    floating = [s.name for s in model.layout if s.type == "floating"]
+    if isinstance(q, dict):
+        return floating_joint_values(q, floating)
+    if isinstance(q, list) and q and any(isinstance(x, dict) for x in q):
+        return [floating_joint_values(x, floating, f"configuration {i}: ") if isinstance(x, dict) else x
+                for i, x in enumerate(q)]
+    return q
+
+
+def _prefixed(exc: JointValueError, prefix: str) -> JointValueError:
+    """The same error (class and joint) with ``prefix`` before its message."""
+    if isinstance(exc, ConfigurationNormError):
+        return ConfigurationNormError(f"{prefix}{exc}", joint=exc.joint)
+    return JointValueError(f"{prefix}{exc}")
+
+
+def joint_batch(model: RobotModel, q: Any, budget: Budget = UNBOUNDED,
+                normalize: bool = False) -> tuple[np.ndarray, bool]:
+    """``(Q (N, nq), is_batch)`` of joint values as a request gives them, within ``budget``.
 
     A list of equal-length number lists becomes one array at once (the common batch), so
     a large batch is not validated number by number; anything else (name maps, ragged
     lists) goes through :func:`~kinematics.model.as_batch`, which names what is wrong.
+    A floating joint's value in a name map may be a pose object; quaternions and planar
+    ``(cos, sin)`` must be of unit norm unless ``normalize`` (then they are scaled).
     """
+    q = _pose_values(model, q)
     if isinstance(q, list) and q and isinstance(q[0], list):
         try:
             arr = np.array(q, dtype=float)
@@ -163,7 +197,7 @@ def joint_batch(model: RobotModel, q: Any, budget: Budget = UNBOUNDED) -> tuple[
             arr = None
         if arr is not None and arr.ndim == 2:
             q = arr
-    Q, is_batch = as_batch(model, q)
+    Q, is_batch = as_batch(model, q, normalize) if normalize else as_batch(model, q)
     budget.check_batch(Q.shape[0])
     if Q.shape[0] == 0:
         raise JointValueError("q has no configuration")
@@ -185,10 +219,11 @@ def resolve_links(model: RobotModel, links: Sequence[str] | str | None) -> list[
     return names
 
 
-def _prepare(model: RobotModel, q: Any, limits: str, budget: Budget) -> tuple[np.ndarray, bool]:
+def _prepare(model: RobotModel, q: Any, limits: str, budget: Budget,
+             normalize: bool = False) -> tuple[np.ndarray, bool]:
     if limits not in LIMIT_POLICIES:
         raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
-    Q, is_batch = joint_batch(model, q, budget)
+    Q, is_batch = joint_batch(model, q, budget, normalize)
     if limits == "refuse":
         require_within_limits(model, Q)
     return Q, is_batch
@@ -196,14 +231,17 @@ def _prepare(model: RobotModel, q: Any, limits: str, budget: Budget) -> tuple[np
 
 def fk(model: RobotModel, q: Any, *, links: Sequence[str] | str | None = None, base: Any = None,
        point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
-       budget: Budget = UNBOUNDED) -> FKAnswer:
+       budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False) -> FKAnswer:
     """Poses ``T_world_link`` of ``links`` (None: the leaf links; ``"all"``; or names) for joint
     values ``q``; ``base`` is the root link's world pose (one, or one per configuration, in
     any form :func:`~kinematics.io.poses.base_poses` reads). ``point`` ([x, y, z] in the link
     frame) or ``tool`` (a pose ``T_link_tool`` in any form) make the poses those of that frame,
     ``T_world_link @ T_link_tool``, on every link returned. ``verify`` compares the poses
-    (in the root frame) with Pinocchio's; ``limits="refuse"`` raises :class:`LimitError`."""
-    Q, is_batch = _prepare(model, q, limits, budget)
+    (in the root frame) with Pinocchio's; ``limits="refuse"`` raises :class:`LimitError`.
+    ``floating_base``: compute with the model on a free-flyer root joint (:func:`model_for`);
+    ``normalize``: scale quaternions and planar ``(cos, sin)`` to unit norm instead of refusing them."""
+    model = model_for(model, floating_base)
+    Q, is_batch = _prepare(model, q, limits, budget, normalize)
     names = resolve_links(model, links)
     N = Q.shape[0]
     if verify:
@@ -224,12 +262,15 @@ def fk(model: RobotModel, q: Any, *, links: Sequence[str] | str | None = None, b
 
 def jacobian(model: RobotModel, q: Any, *, link: str | None = None, reference: str = Reference.WORLD,
              base: Any = None, point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
-             budget: Budget = UNBOUNDED) -> JacobianAnswer:
+             budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False) -> JacobianAnswer:
     """Jacobians (N, 6, dof) of ``link`` (None: the first leaf link) in ``reference``, for joint
     values ``q``, re-expressed in the world of ``base``; ``point`` / ``tool``: the Jacobian of the
     frame at that offset from the link (Pinocchio's frame semantics, see
-    :func:`kinematics.algorithms.jacobian.jacobian`); ``verify`` and ``limits`` as :func:`fk`."""
-    Q, is_batch = _prepare(model, q, limits, budget)
+    :func:`kinematics.algorithms.jacobian.jacobian`); ``verify``, ``limits``, ``floating_base`` and
+    ``normalize`` as :func:`fk`. The columns follow the velocity vector (``nv``: 6 per floating
+    joint, 3 per planar joint)."""
+    model = model_for(model, floating_base)
+    Q, is_batch = _prepare(model, q, limits, budget, normalize)
     link = model.leaf_links[0] if link is None else link
     compile_model(model).link_indices([link])
     N = Q.shape[0]
@@ -272,7 +313,7 @@ class VelocityAnswer(_Answer):
 
 def velocity(model: RobotModel, q: Any, qdot: Any, *, links: Sequence[str] | str | None = None, base: Any = None,
              point: Any = None, tool: Any = None, verify: bool = False, limits: str = "report",
-             budget: Budget = UNBOUNDED) -> VelocityAnswer:
+             budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False) -> VelocityAnswer:
     """Velocities of ``links`` (None or ``"all"``: every link; or names) for joint values ``q`` and
     joint velocities ``qdot`` (the same forms, one velocity vector per configuration), computed
     in one pass down the tree (:mod:`kinematics.algorithms.velocity`): per link the velocity of
@@ -281,12 +322,19 @@ def velocity(model: RobotModel, q: Any, qdot: Any, *, links: Sequence[str] | str
     ``base``: the root link's world pose (at rest), as :func:`fk`. ``point`` / ``tool``: the
     velocity of the frame at that offset from each link (as Pinocchio has it for a frame added
     there). ``verify`` compares every twist with Pinocchio's ``getFrameVelocity``.
+    ``floating_base``, ``normalize`` as :func:`fk`; ``qdot`` has ``nv`` entries (a floating joint's
+    6 are its twist in its own frame, linear first; a planar joint's 3 are ``vx, vy, ωz``).
     """
-    Q, is_batch = _prepare(model, q, limits, budget)
+    model = model_for(model, floating_base)
+    Q, is_batch = _prepare(model, q, limits, budget, normalize)
     try:
-        Qd, qd_batch = joint_batch(model, qdot, budget)
+        if model.multi_dof:
+            Qd, qd_batch = as_velocity_batch(model, qdot)
+            budget.check_batch(Qd.shape[0])
+        else:
+            Qd, qd_batch = joint_batch(model, qdot, budget)
     except JointValueError as exc:
-        raise JointValueError(f"qdot: {exc}") from None
+        raise _prefixed(exc, "qdot: ") from None
     N = Q.shape[0]
     if Qd.shape[0] != N or qd_batch != is_batch:
         raise JointValueError(f"qdot: {Qd.shape[0]} velocity vector(s) for {N} configuration(s) of q: give one per "
@@ -327,7 +375,7 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
        rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
        max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
        random_seed: int = 0, base: Any = None, point: Any = None, tool: Any = None, verify: bool = False,
-       budget: Budget = UNBOUNDED) -> IKAnswer:
+       budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False) -> IKAnswer:
     """Joint values putting ``link`` (None: the first leaf link) at ``target``: one pose or a list
     (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array), ``T_world_link``.
     With ``point`` ([x, y, z] in the link frame) or ``tool`` (a pose ``T_link_tool``) the targets
@@ -336,8 +384,12 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
     ``seed``: one q (vector or name map) for every target, or one per target; default the middle
     of the limits. ``base`` as for :func:`fk`. ``success`` holds only where the answer's FK is
     within the tolerances and the answer inside the limits (:mod:`kinematics.algorithms.ik`).
-    ``verify``: Pinocchio's FK of every answer, against its target.
+    ``verify``: Pinocchio's FK of every answer, against its target. ``floating_base``: solve with
+    the model on a free-flyer root joint (the answer has ``7 + n`` values); ``normalize``: of the seeds.
+    Models with floating or planar joints are solved on the configuration manifold
+    (:func:`kinematics.algorithms.ik.tree_inverse_kinematics`).
     """
+    model = model_for(model, floating_base)
     T, is_batch = pose_list(target, "target")
     N = T.shape[0]
     budget.check_batch(N)
@@ -349,9 +401,9 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
     seeds = None
     if seed is not None:
         try:
-            S, _ = as_batch(model, seed)
+            S, _ = as_batch(model, _pose_values(model, seed), normalize)
         except JointValueError as exc:
-            raise JointValueError(f"seed: {exc}") from None
+            raise _prefixed(exc, "seed: ") from None
         if S.shape[0] not in (1, N):
             raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
         seeds = S
@@ -385,7 +437,7 @@ def workspace(model: RobotModel, link: str | None = None, *, samples: int = _wor
     ``samples`` is bounded by ``budget.max_workspace_samples``; ``progress(n)`` is called after
     each chunk of n samples."""
     link = model.leaf_links[0] if link is None else link
-    compile_model(model).link_indices([link])
+    require_one_dof(model, "the workspace").link_indices([link])
     samples = int(samples)
     if samples < 1:
         raise KinematicsError(f"samples: {samples}; give at least 1")
@@ -443,13 +495,15 @@ def warm_up() -> None:
 
 def screws(model: RobotModel):
     """The model's product-of-exponentials parameters (:class:`~kinematics.engine.poe.PoEModel`):
-    space screws ``S`` (angular first), axes ``w``, points ``r``, home poses ``M``."""
-    return compile_model(model)
+    space screws ``S`` (angular first), axes ``w``, points ``r``, home poses ``M`` (models of
+    one-dof joints only: :class:`~kinematics.errors.UnsupportedJointError` otherwise)."""
+    return require_one_dof(model, "the product-of-exponentials form (screws)")
 
 
 def dh_form(model: RobotModel, tip: str | None = None, convention: str = "standard"):
     """The DH table (:class:`~kinematics.io.dh_table.DHTable`) of the chain from the root to
     ``tip``, with base and tool; :class:`NoDHFormError` when the chain has none."""
+    require_one_dof(model, "a DH form")
     return urdf_to_dh(model, tip=tip, convention=convention)
 
 
@@ -515,6 +569,7 @@ def symbolic(model: RobotModel, *, tip: str | None = None, dh_table: dict | None
     from .algorithms import symbolic as _symbolic
     from .io.dh_table import table_from_dict
 
+    require_one_dof(model, "closed forms")
     if dh_table is not None and tip in (None, "tool"):
         chain = _symbolic.chain_from_table(table_from_dict(dh_table), variables=variables)
     else:
@@ -554,6 +609,7 @@ def task(model: RobotModel, q: Any, *, link: str | None = None, representation: 
     from .algorithms.task import task as _task, task_representation
 
     rep = task_representation(representation, components)
+    require_one_dof(model, "task vectors")
     Q, is_batch = _prepare(model, q, limits, budget)
     link = model.leaf_links[0] if link is None else link
     compile_model(model).link_indices([link])

@@ -98,7 +98,7 @@ def worker_model(spec: tuple[str, str]) -> RobotModel:
         model = _cache.get(key)
         if model is None:
             model = api.load_model(model_id=spec[1]) if spec[0] == "id" else parse_urdf(spec[1])
-            compile_model(model).kernel  # compiled here, once: every partition reuses it
+            getattr(compile_model(model), "kernel", None)  # compiled here, once: every partition reuses it
             LOADS["count"] += 1
             _cache[key] = model
     return model

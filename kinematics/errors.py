@@ -17,7 +17,8 @@ class URDFError(KinematicsError):
 
 
 class UnsupportedJointError(URDFError):
-    """A joint type the product does not support yet (floating, planar)."""
+    """A joint the product does not support (a ball joint; a planar joint whose plane normal is not
+    its frame's z axis; a mimic of a floating or planar joint)."""
 
 
 class ModelTooLargeError(URDFError):
@@ -34,6 +35,15 @@ class NoDHFormError(KinematicsError):
 
 class JointValueError(KinematicsError):
     """Joint values of the wrong shape, with non-finite entries, or with unknown names."""
+
+
+class ConfigurationNormError(JointValueError):
+    """A floating joint's quaternion, or a planar joint's ``(cos, sin)``, that is not of unit norm
+    (``joint`` names the joint); requests may ask to ``normalize`` instead."""
+
+    def __init__(self, message: str, *, joint: str):
+        super().__init__(message)
+        self.joint = joint
 
 
 class UnknownLinkError(KinematicsError):

@@ -24,3 +24,7 @@ AXIS_EPS = 1e-12
 #: Below this |det E(phi)| (Euler angles: |cos pitch| or |sin theta|; rotation vectors: pi - theta;
 #: quaternions: qw) a task representation counts as singular and its analytic Jacobian is refused.
 REPRESENTATION_SINGULARITY_TOLERANCE = 1e-9
+#: How far the norm of a floating joint's quaternion, or of a planar joint's (cos, sin), may be
+#: from 1 in given joint values (they are then scaled to exactly 1; beyond it they are refused
+#: unless the request asks to normalize).
+UNIT_NORM_TOLERANCE = 1e-6

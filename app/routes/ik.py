@@ -24,7 +24,7 @@ from ..npy import decode_targets, names_header
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
 from ..schemas import IK_EXAMPLES, IKRequest, IKResponse, Problem
 from ..settings import Settings
-from .kinematics import PointQuery, parse_point
+from .kinematics import FloatingBaseQuery, NormalizeQuery, PointQuery, parse_point
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -52,6 +52,8 @@ async def read_ik_request(
     random_seed: Annotated[int, Query(ge=0, le=2**63 - 1, description=".npy bodies: restarts' draws")] = 0,
     verify: Annotated[bool, Query(description=".npy bodies: Pinocchio's FK of every answer")] = False,
     point: PointQuery = None,
+    floating_base: FloatingBaseQuery = False,
+    normalize: NormalizeQuery = False,
 ) -> dict[str, Any]:
     """The request's options as :func:`kinematics.api.ik` keywords, whatever its encoding."""
     body = await read_body(request, settings.max_request_bytes, "request body")
@@ -59,7 +61,8 @@ async def read_ik_request(
     if kind == NPY_MEDIA_TYPE:
         return {"target": decode_targets(body), "link": link, "mode": mode, "position_tolerance": position_tolerance,
                 "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
-                "random_seed": random_seed, "verify": verify, "point": parse_point(point)}
+                "random_seed": random_seed, "verify": verify, "point": parse_point(point),
+                "floating_base": floating_base, "normalize": normalize}
     if kind not in ("application/json", ""):
         raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json or {NPY_MEDIA_TYPE}",
                            slug="unsupported-media-type")
@@ -106,7 +109,7 @@ def _solve(model_id: str, options: dict[str, Any], request: Request, registry, s
     sol = answer.solution
     record_ik(sol.success, sol.iterations)
     if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
-        names = names_header(rec.model.joint_names)
+        names = names_header(answer.model.joint_names)
         headers = {"X-Link": answer.link, **({"X-Joint-Names": names} if names is not None else
                                               {"X-Joint-Names-Omitted": "too long for a header; see GET /models/{id}"})}
         return NpzResponse({"q": sol.q, "success": sol.success, "position_error": sol.position_error,
@@ -121,7 +124,7 @@ def _solve(model_id: str, options: dict[str, Any], request: Request, registry, s
         verification = {"reference": v["reference"], "position_error": one(v["position_error"]),
                         "rotation_error": one(v["rotation_error"])}
     return FastJSONResponse({
-        "model": rec.id, "link": answer.link, "mode": answer.mode, "joint_names": list(rec.model.joint_names),
+        "model": rec.id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
         "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
         "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
         "verification": verification,

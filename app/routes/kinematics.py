@@ -66,6 +66,8 @@ class Call:
     base: Any = None  # T_world_root: one pose or one per configuration (JSON bodies)
     point: Any = None  # [x, y, z] in the link frame
     tool: Any = None  # T_link_tool (JSON bodies)
+    floating_base: bool = False  # the model on a free-flyer root joint
+    normalize: bool = False  # scale quaternions and planar (cos, sin) to unit norm
 
 
 def parse_point(value: str | None) -> list[float] | None:
@@ -83,6 +85,8 @@ def parse_point(value: str | None) -> list[float] | None:
 
 
 PointQuery = Annotated[str | None, Query(description=".npy bodies: a point x,y,z in the link frame (metres)")]
+FloatingBaseQuery = Annotated[bool, Query(description=".npy bodies: the model on a free-flyer root joint")]
+NormalizeQuery = Annotated[bool, Query(description=".npy bodies: scale quaternions and planar (cos, sin) to unit norm")]
 
 
 def _split_names(values: list[str] | None):
@@ -135,10 +139,12 @@ async def read_fk_call(
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
     format: Annotated[Literal["pose", "matrix", "compact"], Query(description=".npy bodies with a JSON answer: pose format")] = "pose",
     point: PointQuery = None,
+    floating_base: FloatingBaseQuery = False,
+    normalize: NormalizeQuery = False,
 ) -> Call:
     return await _read_call(request, settings, FKRequest,
                             {"links": _split_names(links), "verify": verify, "limits": limits, "format": format,
-                             "point": parse_point(point)})
+                             "point": parse_point(point), "floating_base": floating_base, "normalize": normalize})
 
 
 async def read_jacobian_call(
@@ -148,10 +154,12 @@ async def read_jacobian_call(
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
     point: PointQuery = None,
+    floating_base: FloatingBaseQuery = False,
+    normalize: NormalizeQuery = False,
 ) -> Call:
     return await _read_call(request, settings, JacobianRequest,
                             {"link": link, "reference": reference, "verify": verify, "limits": limits,
-                             "point": parse_point(point)})
+                             "point": parse_point(point), "floating_base": floating_base, "normalize": normalize})
 
 
 async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
@@ -196,11 +204,12 @@ async def forward_kinematics(model_id: ModelId, call: Annotated[Call, Depends(re
 def _forward_kinematics(model_id: str, call: Call, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     answer = api.fk(rec.model, call.q, links=call.links, base=call.base, point=call.point, tool=call.tool,
-                    verify=call.verify, limits=call.limits, budget=_budget(settings))
+                    verify=call.verify, limits=call.limits, budget=_budget(settings),
+                    floating_base=call.floating_base, normalize=call.normalize)
     record_configurations("fk", _configurations(call.q))
     verification = answer.verification
     if wants_npy(request):
-        headers = _names_headers(answer.links, rec.model.joint_names)
+        headers = _names_headers(answer.links, answer.model.joint_names)
         headers["X-Out-Of-Limits"] = str(answer.out_of_limits_count())
         if verification:
             headers.update({"X-Verification-Reference": verification.reference,
@@ -209,7 +218,7 @@ def _forward_kinematics(model_id: str, call: Call, request: Request, registry, s
         return NpyResponse(answer.poses, headers=headers)
     oob = answer.out_of_limits()
     return FastJSONResponse({
-        "model": rec.id, "joint_names": list(rec.model.joint_names), "links": answer.links, "format": call.format,
+        "model": rec.id, "joint_names": list(answer.model.joint_names), "links": answer.links, "format": call.format,
         "poses": pose_output(answer.poses, answer.links, call.format, answer.is_batch),
         "out_of_limits": oob if answer.is_batch else oob[0],
         "verification": verification.as_dict() if verification else None,
@@ -237,11 +246,11 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
     rec = registry.get(model_id)
     answer = api.jacobian(rec.model, call.q, link=call.link, reference=call.reference, base=call.base,
                           point=call.point, tool=call.tool, verify=call.verify, limits=call.limits,
-                          budget=_budget(settings))
+                          budget=_budget(settings), floating_base=call.floating_base, normalize=call.normalize)
     record_configurations("jacobian", _configurations(call.q))
     J, verification = answer.jacobians, answer.verification
     if wants_npy(request):
-        headers = _names_headers([answer.link], rec.model.joint_names)
+        headers = _names_headers([answer.link], answer.model.joint_names)
         headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": answer.reference.value,
                         "X-Out-Of-Limits": str(answer.out_of_limits_count())})
         if verification:
@@ -259,5 +268,5 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
                 "manipulability": float(measures["manipulability"][0]), "condition_number": cond[0],
                 "out_of_limits": oob[0]}
     return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": answer.reference.value,
-                             "joint_names": list(rec.model.joint_names), **body,
+                             "joint_names": list(answer.model.joint_names), **body,
                              "verification": verification.as_dict() if verification else None})

@@ -252,9 +252,14 @@ def register_axes(description: Annotated[dict, Depends(read_axes)], registry: Re
 
 
 @router.get("/models/{model_id}", response_model=ModelInfo, responses=_ERRORS)
-def get_model(model_id: ModelId, registry: RegistryDep) -> dict:
-    """Joints (name, type, axis, parent, child, origin, limits, mimic), links, `joint_names` (the order of q), dof, root."""
-    return model_info(registry.get(model_id))
+def get_model(model_id: ModelId, registry: RegistryDep,
+              floating_base: Annotated[bool, Query(description="describe the model as computed with floating_base: "
+                                                               "true (a free-flyer root_joint above its root)")] = False
+              ) -> dict:
+    """Joints (name, type, axis, parent, child, origin, limits, mimic), links, `joint_names` (the order of q), dof, root;
+    `nq`, `nv` and `q_layout` (per joint its slices of q and of the velocity vector: a floating joint takes 7 and 6,
+    a planar joint 4 and 3)."""
+    return model_info(registry.get(model_id), floating_base=floating_base)
 
 
 @router.get("/models/{model_id}/urdf", response_class=PlainResponse, responses={

@@ -26,7 +26,7 @@ from ..npy import decode_q
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import VELOCITY_EXAMPLES, Problem, VelocityRequest, VelocityResponse
 from ..settings import Settings
-from .kinematics import INLINE_MAX_CONFIGURATIONS, PointQuery, _budget, _configurations, _names_headers, _split_names, parse_point
+from .kinematics import INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, NormalizeQuery, PointQuery, _budget, _configurations, _names_headers, _split_names, parse_point
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -48,6 +48,8 @@ async def read_velocity_request(
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
     point: PointQuery = None,
+    floating_base: FloatingBaseQuery = False,
+    normalize: NormalizeQuery = False,
 ) -> dict[str, Any]:
     """The request as :func:`kinematics.api.velocity` keywords (plus ``q``, ``qdot``), whatever its encoding."""
     body = await read_body(request, settings.max_request_bytes, "request body")
@@ -55,7 +57,7 @@ async def read_velocity_request(
     if kind == NPY_MEDIA_TYPE:
         arr = decode_q(body)
         return {"q_qdot": arr, "links": _split_names(links), "verify": verify, "limits": limits,
-                "point": parse_point(point)}
+                "point": parse_point(point), "floating_base": floating_base, "normalize": normalize}
     if kind not in ("application/json", ""):
         raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json or {NPY_MEDIA_TYPE}",
                            slug="unsupported-media-type")
@@ -66,12 +68,15 @@ async def read_velocity_request(
     return req.model_dump()
 
 
-def _split_npy(arr: np.ndarray, dof: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(q, qdot)`` of an ``(N, 2 dof)`` or ``(2 dof,)`` array of rows ``[q | qdot]``."""
-    if arr.shape[-1] != 2 * dof:
-        raise ProblemError(422, f"a velocity .npy body holds rows [q | qdot] of {2 * dof} numbers (dof {dof}), "
+def _split_npy(arr: np.ndarray, dof: int, nq: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(q, qdot)`` of an ``(N, nq + nv)`` or ``(nq + nv,)`` array of rows ``[q | qdot]`` (``nq = nv = dof``
+    for models of one-dof joints)."""
+    nq = dof if nq is None else nq
+    if arr.shape[-1] != nq + dof:
+        what = f"dof {dof}" if nq == dof else f"nq {nq}, nv {dof}"
+        raise ProblemError(422, f"a velocity .npy body holds rows [q | qdot] of {nq + dof} numbers ({what}), "
                            f"got shape {arr.shape}", slug="invalid-npy", field="body")
-    return arr[..., :dof], arr[..., dof:]
+    return arr[..., :nq], arr[..., nq:]
 
 
 @router.post(
@@ -108,11 +113,12 @@ def _velocity(model_id: str, options: dict[str, Any], request: Request, registry
     rec = registry.get(model_id)
     options = dict(options)
     if "q_qdot" in options:
-        options["q"], options["qdot"] = _split_npy(options.pop("q_qdot"), rec.model.dof)
+        model = api.model_for(rec.model, options.get("floating_base", False))
+        options["q"], options["qdot"] = _split_npy(options.pop("q_qdot"), model.nv, model.nq)
     answer = api.velocity(rec.model, options.pop("q"), options.pop("qdot"), budget=_budget(settings), **options)
     verification = answer.verification
     if wants_npy(request):
-        headers = _names_headers(answer.links, rec.model.joint_names)
+        headers = _names_headers(answer.links, answer.model.joint_names)
         headers.update({"X-Twist-References": ",".join(r.value for r in TWIST_ORDER),
                         "X-Out-Of-Limits": str(answer.out_of_limits_count())})
         if verification:
@@ -130,7 +136,7 @@ def _velocity(model_id: str, options: dict[str, Any], request: Request, registry
     N = answer.Q.shape[0]
     oob = answer.out_of_limits()
     return FastJSONResponse({
-        "model": rec.id, "joint_names": list(rec.model.joint_names), "links": answer.links,
+        "model": rec.id, "joint_names": list(answer.model.joint_names), "links": answer.links,
         "velocities": [per_link(n) for n in range(N)] if answer.is_batch else per_link(0),
         "out_of_limits": oob if answer.is_batch else oob[0],
         "verification": verification.as_dict() if verification else None,

@@ -118,6 +118,11 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     if max_iterations < 1 or restarts < 0:
         raise KinematicsError(f"max_iterations must be at least 1 and restarts at least 0 "
                               f"(got {max_iterations}, {restarts})")
+    if model.multi_dof:
+        return tree_inverse_kinematics(model, link, targets, seeds, base=base, mode=mode,
+                                       position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
+                                       max_iterations=max_iterations, restarts=restarts, random_seed=random_seed,
+                                       tool=tool)
     poe = compile_model(model)
     li = int(poe.link_indices([link])[0])
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
@@ -137,3 +142,151 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
                       float(position_tolerance), float(rotation_tolerance), mode == "position", position, rotation,
                       success)
     return IKSolution(Q, success, position, rotation, steps)
+
+
+# ---------------------------------------------------------------------- models with floating or planar joints
+def _middle_neutral(model: RobotModel) -> np.ndarray:
+    """The default seed of a multi-dof model (nq,): the neutral configuration, one-dof joints at the
+    middle of their limits."""
+    q = np.array(model.neutral)
+    middle = _middle(model)
+    for s in model.layout:
+        if s.nq == 1:
+            q[s.q_start] = middle[s.q_start]
+    q.setflags(write=False)
+    return q
+
+
+_neutral_middles = PerModel(_middle_neutral)
+
+
+def _target_rng(target: np.ndarray, random_seed: int) -> np.random.Generator:
+    """A generator seeded by the target's bytes and ``random_seed`` (a target solved alone gets its batch answer)."""
+    words = np.frombuffer(np.ascontiguousarray(target, dtype=np.float64).tobytes(), dtype=np.uint32)
+    return np.random.default_rng([int(random_seed) & 0xFFFFFFFF, *words.tolist()])
+
+
+def _random_restart(model: RobotModel, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A restart point: one-dof joints uniform within their limits (±π when unbounded), floating and
+    planar joints keep their position and take a random orientation (angle)."""
+    q = q.copy()
+    for s in model.layout:
+        if s.nq == 1:
+            lo, hi = model.lower_limits[s.q_start], model.upper_limits[s.q_start]
+            lo = lo if np.isfinite(lo) else -np.pi
+            hi = hi if np.isfinite(hi) else np.pi
+            q[s.q_start] = rng.uniform(lo, hi)
+        elif s.type == "floating":
+            quat = rng.normal(size=4)
+            q[s.q_start + 3:s.q_start + 7] = quat / np.linalg.norm(quat)
+        else:
+            theta = rng.uniform(-np.pi, np.pi)
+            q[s.q_start + 2], q[s.q_start + 3] = np.cos(theta), np.sin(theta)
+    return q
+
+
+def _project(model: RobotModel, Q: np.ndarray) -> np.ndarray:
+    """One-dof entries put back within their limits, continuous angles wrapped into [-π, π]."""
+    lo, hi = model.lower_limits, model.upper_limits
+    Q = np.clip(Q, lo, hi)  # infinite bounds leave floating and planar entries unchanged
+    cont = model.continuous
+    if cont.any():
+        Q[:, cont] = np.mod(Q[:, cont] + np.pi, 2 * np.pi) - np.pi
+    return Q
+
+
+def _errors(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """(N, 6) position error and rotation vector of ``R_target R^T`` (world axes)."""
+    from ..spatial.lie import so3_log
+
+    e = np.empty((F.shape[0], 6))
+    e[:, :3] = targets[:, :3, 3] - F[:, :3, 3]
+    e[:, 3:] = so3_log(targets[:, :3, :3] @ np.swapaxes(F[:, :3, :3], 1, 2))
+    return e
+
+
+def tree_inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds: np.ndarray | None = None, *,
+                            base: np.ndarray | None = None, mode: str = "pose",
+                            position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
+                            rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE,
+                            max_iterations: int = DEFAULT_MAX_ITERATIONS, restarts: int = DEFAULT_RESTARTS,
+                            random_seed: int = 0, tool: np.ndarray | None = None) -> IKSolution:
+    """IK of a model with floating or planar joints (numpy; :func:`inverse_kinematics` calls it).
+
+    Damped least squares on the manifold: per step ``(J^T J + λ I) Δv = J^T e`` with ``J`` the
+    ``local_world_aligned`` Jacobian (nv columns), ``e`` the position error and the rotation vector
+    of ``R_target R^T`` (position rows only in ``position`` mode) and ``λ = ½|e|² + DAMPING``;
+    then ``q ← q ⊕ Δv`` (:meth:`~kinematics.engine.tree.TreeModel.integrate`: the quaternion
+    exponential of a floating joint, the angle of a planar one), one-dof joints clipped to their
+    limits and continuous ones wrapped. Restarts, success and the answer's errors as
+    :func:`inverse_kinematics` (measured again by FK).
+    """
+    from ..model.joint_values import limit_violations
+
+    eng = compile_model(model)
+    li = int(eng.link_indices([link])[0])
+    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    N = targets.shape[0]
+    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
+    if seeds is None:
+        seeds = _neutral_middles(model)
+    Q = np.array(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.nq)))
+    Q = _project(model, Q)
+    position_only = mode == "position"
+    rows = slice(0, 3) if position_only else slice(0, 6)
+    tool_T = None if tool is None else np.asarray(tool, dtype=float)
+    goal_p, goal_r = POLISH * position_tolerance, POLISH * rotation_tolerance
+    steps = np.zeros(N, dtype=np.int64)
+    best_Q = Q.copy()
+    best_score = np.full(N, np.inf)
+    solved = np.zeros(N, dtype=bool)
+    rngs = [None] * N
+
+    def measure(Qm, Tm):
+        F = eng.fk(Qm, [link], tool=tool_T)[:, 0]
+        p, r = pose_errors(F, Tm)
+        if position_only:
+            r = np.zeros_like(r)
+        ok = (p <= position_tolerance) & (r <= rotation_tolerance) & ~limit_violations(model, Qm).any(axis=1)
+        return p, r, ok
+
+    for attempt in range(restarts + 1):
+        run = np.flatnonzero(~solved)
+        if run.size == 0:
+            break
+        if attempt > 0:
+            for n in run:
+                if rngs[n] is None:
+                    rngs[n] = _target_rng(T_root[n], random_seed)
+                Q[n] = _random_restart(model, best_Q[n] if np.isfinite(best_score[n]) else Q[n], rngs[n])
+            Q[run] = _project(model, Q[run])
+        active = run.copy()
+        for _ in range(max_iterations):
+            if active.size == 0:
+                break
+            Qa = Q[active]
+            frames = eng.frames(Qa)
+            F = frames[:, li] if tool_T is None else frames[:, li] @ tool_T
+            e = _errors(F, T_root[active])
+            done = (np.linalg.norm(e[:, :3], axis=1) <= goal_p) & (
+                position_only | (np.linalg.norm(e[:, 3:], axis=1) <= goal_r))
+            active, Qa, frames, e = active[~done], Qa[~done], frames[~done], e[~done]
+            if active.size == 0:
+                break
+            J = eng.jacobian(Qa, link, "local_world_aligned", tool=tool_T, frames=frames)[:, rows]
+            e = e[:, rows]
+            lam = 0.5 * np.sum(e * e, axis=1) + DAMPING
+            A = np.swapaxes(J, 1, 2) @ J + lam[:, None, None] * np.eye(model.nv)
+            dv = np.linalg.solve(A, (np.swapaxes(J, 1, 2) @ e[:, :, None]))[:, :, 0]
+            Q[active] = _project(model, eng.integrate(Qa, dv))
+            steps[active] += 1
+        p, r, ok = measure(Q[run], T_root[run])
+        score = np.where(ok, -1.0, p + r)
+        better = score < best_score[run]
+        best_Q[run[better]] = Q[run[better]]
+        best_score[run[better]] = score[better]
+        solved[run[ok]] = True
+    position, rotation, success = measure(best_Q, T_root)
+    if position_only:
+        rotation = pose_errors(eng.fk(best_Q, [link], tool=tool_T)[:, 0], T_root)[1]
+    return IKSolution(best_Q, success, position, rotation, steps)

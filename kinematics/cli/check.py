@@ -6,6 +6,7 @@ import sys
 import time
 
 from ..io.catalogue import default_catalogue
+from ..io.floating import with_floating_base
 from ..tolerances import AGREEMENT_TOLERANCE
 from ..verify.parity import check_model, summary_line
 from .progress import progress
@@ -23,6 +24,8 @@ def register(sub) -> None:
     p.add_argument("--model", action="append", metavar="ID", help="check only this model (repeatable)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--tolerance", type=float, default=AGREEMENT_TOLERANCE, help="largest allowed deviation (default 1e-9)")
+    p.add_argument("--floating-base", action="store_true",
+                   help="check each model on a free-flyer root joint (against Pinocchio's JointModelFreeFlyer root)")
     p.set_defaults(func=run)
 
 
@@ -34,7 +37,11 @@ def run(args) -> int:
     t0 = time.perf_counter()
     results = []
     for mid in progress(ids, desc="check", unit="model"):
-        results.append(check_model(mid, lambda mid=mid: cat.get(mid), args.samples, args.seed, args.tolerance))
+        if getattr(args, "floating_base", False):
+            load = lambda mid=mid: with_floating_base(cat.get(mid))  # noqa: E731
+        else:
+            load = lambda mid=mid: cat.get(mid)  # noqa: E731
+        results.append(check_model(mid, load, args.samples, args.seed, args.tolerance))
     elapsed = time.perf_counter() - t0
     w = max(len(r.model_id) for r in results)
     print(f"{'model':<{w}}  {'dof':>4}  {'links':>5}  {'position':>9}  {'rotation':>9}  {'jacobian':>9}  "

@@ -49,6 +49,7 @@ from ..spatial.reference import Reference
 from ..spatial.transforms import exp_screws
 from .compiled import PRISMATIC, REF_LOCAL, REF_LOCAL_WORLD_ALIGNED, REF_WORLD, REVOLUTE
 from .plans import Kernel
+from .tree import TreeModel
 
 
 @dataclass(frozen=True, eq=False)
@@ -303,10 +304,28 @@ def _reference(reference: str) -> Reference:
         raise KinematicsError(f"unknown reference {reference!r}; expected one of {expected}") from None
 
 
-_compiled = PerModel(PoEModel.from_model)
+def _compile(model: RobotModel) -> "PoEModel | TreeModel":
+    return TreeModel(model) if model.multi_dof else PoEModel.from_model(model)
 
 
-def compile_model(model: RobotModel) -> PoEModel:
-    """The compiled PoE form of ``model``, built once per model object (thread-safe) and kept
-    as long as the model lives."""
+_compiled = PerModel(_compile)
+
+
+def compile_model(model: RobotModel) -> "PoEModel | TreeModel":
+    """The compiled form of ``model``, built once per model object (thread-safe) and kept as long
+    as the model lives: the PoE kernels' :class:`PoEModel`, or for a model with a floating or
+    planar joint the numpy tree walk :class:`~kinematics.engine.tree.TreeModel` (same ``fk``,
+    ``jacobian``, ``velocity`` and ``link_indices``)."""
+    return _compiled(model)
+
+
+def require_one_dof(model: RobotModel, what: str) -> PoEModel:
+    """The :class:`PoEModel` of a model of one-dof joints; for a model with floating or planar joints,
+    :class:`~kinematics.errors.UnsupportedJointError` saying that ``what`` is not available for it."""
+    if model.multi_dof:
+        from ..errors import UnsupportedJointError
+
+        kinds = sorted({j.type for j in model.joints if j.type in ("floating", "planar")})
+        raise UnsupportedJointError(f"{what} is not available for models with {' or '.join(kinds)} joints "
+                                    f"(model {model.name!r}); FK, Jacobians, velocities and IK are")
     return _compiled(model)

@@ -25,8 +25,11 @@ Pinocchio can check it unchanged:
   anchor, exactly as that chain does);
 * a slide without ``range`` gets limits of +-``MAX_ABS_COORDINATE`` (URDF and Pinocchio need
   limits on a prismatic joint), with a warning;
-* ``ball`` joints are refused naming the joint, and so is a ``free`` joint (a floating base:
-  not supported yet -- give the base pose in requests instead).
+* a ``free`` joint (``<freejoint>`` or ``<joint type="free">``) is a URDF ``floating`` joint from
+  the world to its body with an identity origin: MuJoCo places such a body at its ``qpos``
+  (``x y z qw qx qy qz``, world frame), which is our q ``x y z qx qy qz qw`` (Pinocchio's order:
+  the quaternion's w moves to the end); its velocity is the twist in the body frame, linear first;
+* ``ball`` joints are refused naming the joint.
 """
 
 from __future__ import annotations
@@ -220,9 +223,17 @@ def compiled_to_urdf(m, name: str, notes: list[str] | None = None) -> str:
             jname = joint_name(j)
             jtype = int(m.jnt_type[j])
             if jtype == FREE:
-                raise UnsupportedJointError(
-                    f"joint {jname!r} of body {body!r} is a free joint (a floating base), which is not supported yet: "
-                    "remove it and give the base's pose in requests (base)")
+                if count != 1 or int(m.body_parentid[b]) != 0:
+                    raise UnsupportedJointError(
+                        f"free joint {jname!r} of body {body!r}: only a free joint alone in a body of the world is "
+                        "supported (MuJoCo places that body at its qpos in the world frame)")
+                if jname in joint_names:
+                    raise MJCFError(f"two joints are named {jname!r}")
+                joint_names.add(jname)
+                out_joints.append(f'<joint name="{_esc(jname)}" type="floating"><parent link="{_esc(parent)}"/>'
+                                  f'<child link="{_esc(body)}"/></joint>')
+                current, pending = body, np.eye(4)
+                continue
             if jtype == BALL:
                 raise UnsupportedJointError(f"joint {jname!r} of body {body!r} is a ball joint, which is not supported")
             if jname in joint_names:

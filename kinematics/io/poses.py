@@ -141,3 +141,48 @@ def tool_offset(point=None, tool=None) -> np.ndarray | None:
     if is_batch:
         raise PoseError("tool: give one pose (T_link_tool), not a list")
     return T[0]
+
+
+def floating_joint_values(values: Mapping, floating: Sequence[str], where: str = "") -> dict:
+    """A ``{joint: value}`` map whose floating joints (names in ``floating``) may be given as a pose:
+    ``{"position", "quaternion": {w, x, y, z}}`` (taken as given: its norm is checked, naming the
+    joint, with the rest of q), ``{"xyz", "rpy"}`` or a 4x4 matrix (rigid) -> the same map with
+    those joints as their 7 values ``x, y, z, qx, qy, qz, qw`` (Pinocchio's layout). Other
+    values are left as they are.
+
+    >>> floating_joint_values({"root": {"xyz": [1, 2, 3], "rpy": [0, 0, 0]}, "elbow": 0.5}, ["root"])
+    {'root': [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0], 'elbow': 0.5}
+    """
+    from ..errors import JointValueError
+    from ..spatial.rotations import matrix_to_quaternion
+
+    out = dict(values)
+    for name in floating:
+        v = values.get(name)
+        is_matrix = (isinstance(v, Sequence) and not isinstance(v, (str, bytes)) and len(v) == 4
+                     and all(isinstance(r, Sequence) and not isinstance(r, (str, bytes)) for r in v))
+        if not (isinstance(v, Mapping) or is_matrix):
+            continue
+        at = f"{where}joint {name!r}"
+        if isinstance(v, Mapping) and set(v) == {"position", "quaternion"}:
+            quat = v["quaternion"]
+            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
+                raise JointValueError(f"{at}: quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
+            p = _vector(v["position"], 3, f"{at}: position", PoseError)
+            out[name] = [*map(float, p), *(_scalar_of(quat[k], at) for k in ("x", "y", "z", "w"))]
+            continue
+        try:
+            T = _one_pose(v, at, PoseError)
+        except PoseError as exc:
+            raise JointValueError(str(exc)) from None
+        w, x, y, z = matrix_to_quaternion(T[:3, :3])
+        out[name] = [*map(float, T[:3, 3]), float(x), float(y), float(z), float(w)]
+    return out
+
+
+def _scalar_of(v, where: str) -> float:
+    from ..errors import JointValueError
+
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise JointValueError(f"{where}: quaternion entry {v!r} is not a number")
+    return float(v)

@@ -21,14 +21,20 @@ from defusedxml import DefusedXmlException
 from defusedxml.ElementTree import fromstring as safe_fromstring
 
 from ..errors import ModelTooLargeError, UnsupportedJointError, URDFError
-from ..model.robot import MOVING_TYPES, SUPPORTED_TYPES, Joint, Limits, Mimic, RobotModel, Visual, frozen_array
+from ..model.robot import (MOVING_TYPES, MULTI_DOF_TYPES, SUPPORTED_TYPES, Joint, Limits, Mimic, RobotModel, Visual,
+                           frozen_array)
 from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE
 
 
 #: Default cap on the number of links (and of joints) in one model.
 DEFAULT_MAX_LINKS = 10_000
-#: Joint types URDF knows but this product refuses for now.
-UNSUPPORTED_TYPES = frozenset({"floating", "planar"})
+#: Joint types URDF knows but this product refuses (none: floating and planar joints are read since
+#: the second wave, in Pinocchio's layout).
+UNSUPPORTED_TYPES: frozenset[str] = frozenset()
+#: The only plane normal a planar joint may have: Pinocchio's URDF reader makes every planar joint
+#: a JointModelPlanar, which moves in the x-y plane of the joint frame whatever <axis> says (and the
+#: URDF default axis is x), so any other axis would silently disagree with the reference.
+PLANAR_AXIS = (0.0, 0.0, 1.0)
 
 
 def _numbers(text: str | None, count: int, what: str, default: str, bound: float | None = None) -> list[float]:
@@ -217,10 +223,18 @@ def _check_document(root: ET.Element, max_links: int) -> None:
             _numbers(origin.get("xyz"), 3, f"joint {name!r} <origin xyz>", "0 0 0", MAX_ABS_COORDINATE)
             _numbers(origin.get("rpy"), 3, f"joint {name!r} <origin rpy>", "0 0 0", MAX_ABS_COORDINATE)
         axis = el.find("axis")
-        if axis is not None and jt in MOVING_TYPES:
+        if axis is not None and jt in MOVING_TYPES and jt != "floating":
             xyz = _numbers(axis.get("xyz"), 3, f"joint {name!r} <axis xyz>", "1 0 0")
             if math.hypot(*xyz) < AXIS_EPS:  # hypot: no overflow for huge components
                 raise URDFError(f"joint {name!r} has a zero <axis>")
+        if jt == "planar":
+            xyz = None if axis is None else _numbers(axis.get("xyz"), 3, f"joint {name!r} <axis xyz>", "1 0 0")
+            unit = None if xyz is None else np.asarray(xyz) / math.hypot(*xyz)
+            if unit is None or np.max(np.abs(unit - PLANAR_AXIS)) > AXIS_EPS:
+                raise UnsupportedJointError(
+                    f"planar joint {name!r} has plane normal (axis) {'1 0 0 (the URDF default)' if xyz is None else axis.get('xyz')}: "
+                    "only <axis xyz=\"0 0 1\"/> is supported (Pinocchio moves every URDF planar joint in the x-y plane "
+                    "of its frame whatever its axis); rotate the joint's <origin> so that the plane normal is its z axis")
         limit = el.find("limit")
         if limit is not None:
             lo = _number(limit.get("lower"), f"joint {name!r} <limit lower>", 0.0)
@@ -230,6 +244,9 @@ def _check_document(root: ET.Element, max_links: int) -> None:
             if jt in ("revolute", "prismatic") and lo > hi:
                 raise URDFError(f"joint {name!r} has lower limit {lo} above upper limit {hi}")
         mimic = el.find("mimic")
+        if mimic is not None and jt in MULTI_DOF_TYPES:
+            raise UnsupportedJointError(f"{jt} joint {name!r} has a <mimic>: only revolute, continuous and prismatic "
+                                        "joints may mimic")
         if mimic is not None:
             if not mimic.get("joint"):
                 raise URDFError(f"joint {name!r} has a <mimic> without a 'joint' attribute")
@@ -423,7 +440,9 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
     joints: list[Joint] = []
     for yj in robot.joints:
         axis = np.asarray(yj.axis if yj.axis is not None else (1.0, 0.0, 0.0), dtype=float)
-        if yj.type in MOVING_TYPES:
+        if yj.type == "floating":  # no axis: the joint moves in all six directions of its frame
+            axis = np.array([0.0, 0.0, 1.0])
+        elif yj.type in MOVING_TYPES:
             axis = axis / np.max(np.abs(axis))  # scale first: |axis|^2 may overflow (1e200)
             axis = axis / np.linalg.norm(axis)
         limits = None
@@ -474,6 +493,9 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
         leader = jmap[j.mimic.leader]
         if not leader.moving:
             raise URDFError(f"joint {j.name!r} mimics {leader.name!r}, which is a {leader.type} joint")
+        if leader.type in MULTI_DOF_TYPES:
+            raise UnsupportedJointError(f"joint {j.name!r} mimics {leader.name!r}, which is a {leader.type} joint "
+                                        "(only one-dof joints can be mimicked)")
         seen = {j.name}
         k = leader
         while k.mimic is not None:

@@ -47,7 +47,7 @@ def check_model(model_id: str, load, samples: int = 5, seed: int = 0, tolerance:
     Q = model.sample_configurations(samples, rng)
     fk = compare_fk(model, Q)
     jac = max((compare_jacobian(model, Q, leaf) for leaf in model.leaf_links), default=0.0)
-    Qd = rng.uniform(-1.0, 1.0, Q.shape)
+    Qd = rng.uniform(-1.0, 1.0, (Q.shape[0], model.nv))
     vel = compare_velocity(model, Q, Qd)
     res = ParityResult(
         model_id, "ok", model.dof, len(model.links), fk.max_position_error, fk.max_rotation_error, jac, vel

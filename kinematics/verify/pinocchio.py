@@ -9,6 +9,13 @@ deviations from our PoE results.
 Pinocchio 4.1 refuses ``mimic=True`` on some catalogue files ("The parent joint of the
 mimic joint is not in the kinematic tree"): there the model is built without mimic, each
 mimic joint is set from its leader, and its Jacobian column is folded into the leader's.
+
+Floating and planar joints have the same layout here and in Pinocchio (JointModelFreeFlyer:
+``x, y, z, qx, qy, qz, qw`` and 6 velocities; JointModelPlanar: ``x, y, cos, sin`` and 3), so
+their entries are copied as they are. A model made by ``floating_base``
+(``model.base_model`` set) is checked against Pinocchio's own construction,
+``buildModelFromXML(base_urdf, JointModelFreeFlyer())``: its root joint is Pinocchio's
+``root_joint`` and its new root link Pinocchio's ``universe`` frame.
 """
 
 from __future__ import annotations
@@ -55,20 +62,25 @@ class PinocchioReference:
     def __init__(self, model: RobotModel):
         self.model = model
         self.mimic_native = True
+        base = model.base_model
+        urdf = model.urdf if base is None else base.urdf
+        extra = () if base is None else (pin.JointModelFreeFlyer(),)
         try:
-            self.pin_model = pin.buildModelFromXML(model.urdf, mimic=True)
+            self.pin_model = pin.buildModelFromXML(urdf, *extra, mimic=True)
         except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain RuntimeError/ValueError
             try:
-                self.pin_model = pin.buildModelFromXML(model.urdf, mimic=False)
+                self.pin_model = pin.buildModelFromXML(urdf, *extra, mimic=False)
                 self.mimic_native = False
             except Exception:
                 raise ReferenceUnavailableError(f"Pinocchio cannot load model {model.name!r}: {exc}") from None
         pm = self.pin_model
         self._data = threading.local()
+        # Pinocchio's names of our joints and links where they differ (a floating_base model's root)
+        alias = {} if base is None else {"root_joint": model.joint_names[0]}
         # our joint -> (idx_q, idx_v, kind) in Pinocchio; only joints with their own entry
         self.q_map: list[tuple[int, int, str, str]] = []  # (idx_q, idx_v, type, our joint name)
         for jid in range(1, pm.njoints):
-            name = pm.names[jid]
+            name = alias.get(pm.names[jid], pm.names[jid])
             if name not in model.joint_map:
                 continue
             jm = pm.joints[jid]
@@ -80,6 +92,8 @@ class PinocchioReference:
             if fr.type == pin.FrameType.BODY and fr.name in model.joint_map.keys() | set(model.links):
                 if fr.name in set(model.links) and fr.name not in self.frame_ids:
                     self.frame_ids[fr.name] = fid
+        if base is not None and model.root not in self.frame_ids:
+            self.frame_ids[model.root] = pm.getFrameId("universe")
         missing = [l for l in model.links if l not in self.frame_ids]
         if missing:
             raise ReferenceUnavailableError(f"Pinocchio has no BODY frame for links {missing[:5]}")
@@ -92,9 +106,9 @@ class PinocchioReference:
         return d
 
     def to_pinocchio_q(self, q: np.ndarray) -> np.ndarray:
-        """Our q (dof,) -> Pinocchio's configuration vector (nq,)."""
+        """Our q (nq,) -> Pinocchio's configuration vector (its nq)."""
         m = self.model
-        values = {n: q[i] for i, n in enumerate(m.joint_names)}
+        values = {s.name: (q[s.q_start] if s.nq == 1 else q[s.q_slice]) for s in m.layout}
         for j in m.moving_joints:  # mimic values, used when Pinocchio has them as joints
             r = m.resolve_mimic(j)
             if r is not None:
@@ -104,36 +118,41 @@ class PinocchioReference:
             v = values[name]
             if jtype == "continuous":
                 x[idx_q], x[idx_q + 1] = np.cos(v), np.sin(v)
+            elif jtype in ("floating", "planar"):  # the same layout in both
+                x[idx_q:idx_q + len(v)] = v
             else:
                 x[idx_q] = v
         return x
 
     def _fold_columns(self, Jp: np.ndarray) -> np.ndarray:
-        """Pinocchio Jacobian (6, nv) -> ours (6, dof), folding mimic columns into leaders."""
+        """Pinocchio Jacobian (6, its nv) -> ours (6, nv), folding mimic columns into leaders."""
         m = self.model
-        J = np.zeros((6, m.dof))
+        J = np.zeros((6, m.nv))
         for _, idx_v, _, name in self.q_map:
             joint = m.joint_map[name]
             r = m.resolve_mimic(joint)
             if r is None:
-                J[:, m.q_index[name]] += Jp[:, idx_v]
+                s = m.slot[name]
+                J[:, s.v_slice] += Jp[:, idx_v:idx_v + s.nv]
             else:
-                J[:, m.q_index[r[0]]] += r[1] * Jp[:, idx_v]
+                J[:, m.slot[r[0]].v_start] += r[1] * Jp[:, idx_v]
         return J
 
     def to_pinocchio_v(self, qdot: np.ndarray) -> np.ndarray:
-        """Our joint velocities (dof,) -> Pinocchio's velocity vector (nv,): one entry per joint with
-        its own q entry (a continuous joint has one velocity, not two); a mimic joint Pinocchio has
-        as a joint of its own moves with ``multiplier * qdot[leader]``."""
+        """Our joint velocities (nv,) -> Pinocchio's velocity vector (its nv): the entries of each joint
+        with its own q entry (a continuous joint has one velocity, not two; floating 6, planar 3, the
+        same order); a mimic joint Pinocchio has as a joint of its own moves with
+        ``multiplier * qdot[leader]``."""
         m = self.model
-        values = {n: qdot[i] for i, n in enumerate(m.joint_names)}
+        values = {s.name: qdot[s.v_slice] for s in m.layout}
         for j in m.moving_joints:
             r = m.resolve_mimic(j)
             if r is not None:
                 values[j.name] = r[1] * values[r[0]]
         v = np.zeros(self.pin_model.nv)
         for _, idx_v, _, name in self.q_map:
-            v[idx_v] = values[name]
+            val = values[name]
+            v[idx_v:idx_v + len(val)] = val
         return v
 
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:

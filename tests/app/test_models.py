@@ -116,9 +116,9 @@ def test_upload_json_name_and_bad_urdf(api_client):
                             b"<joint name='j' type='fixed'><parent link='a'/><child link='c'/></joint></robot>",
                             headers={"content-type": "application/xml"})
     assert cycle.status_code == 422 and "'c'" in cycle.json()["detail"]
-    floating = TWO_LINK_URDF.replace('type="revolute"', 'type="floating"', 1)
-    r = api_client.post("/models", content=floating, headers={"content-type": "application/xml"})
-    assert r.status_code == 422 and "floating" in r.json()["detail"]
+    planar = TWO_LINK_URDF.replace('type="revolute"', 'type="planar"', 1).replace('xyz="0 0 1"', 'xyz="1 0 0"', 1)
+    r = api_client.post("/models", content=planar, headers={"content-type": "application/xml"})
+    assert r.status_code == 422 and "planar joint" in r.json()["detail"]
     bomb = ('<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "aaaa"><!ENTITY b "&a;&a;&a;">]>'
             '<robot name="x"><link name="&b;"/></robot>')
     r = api_client.post("/models", content=bomb, headers={"content-type": "application/xml"})

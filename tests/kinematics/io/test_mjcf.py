@@ -24,7 +24,7 @@ from tests.paths import FIXTURES  # noqa: E402
 SITE = Path(np.__file__).resolve().parents[1]
 ROBOSUITE = SITE / "robosuite" / "models" / "assets"
 GYM = SITE / "gymnasium" / "envs" / "mujoco" / "assets"
-#: robosuite's robots with supported joints (gr1 and spot have a free joint: refused, tested below)
+#: robosuite's robots without a free joint (gr1 and spot have one: FREE_JOINT_FILES below)
 ROBOSUITE_ROBOTS = ["baxter", "iiwa", "jaco", "kinova3", "panda", "sawyer", "spot_arm", "tiago", "ur5e", "xarm7"]
 GRIPPERS = ["panda_gripper", "robotiq_gripper_140", "robotiq_gripper_s", "jaco_three_finger_gripper",
             "inspire_left_hand", "fourier_right_hand", "rethink_gripper"]
@@ -98,13 +98,63 @@ def test_leaving_geometry_out_changes_no_pose(robot, rng):
         np.testing.assert_allclose(body_poses(full, qpos), body_poses(reduced, qpos), atol=1e-12)
 
 
-@pytest.mark.parametrize("robot", ["gr1", "spot"])
-def test_free_joints_are_refused_until_floating_bases(robot):
-    path = ROBOSUITE / "robots" / robot / "robot.xml"
+def _qpos_of(m, model, q: np.ndarray) -> np.ndarray:
+    """MuJoCo's qpos of our q: a free joint's ``x y z qx qy qz qw`` becomes ``x y z qw qx qy qz``."""
+    qpos = m.qpos0.copy()
+    for j in range(m.njnt):
+        s = model.slot[mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"]
+        a = int(m.jnt_qposadr[j])
+        if s.type == "floating":
+            x, y, z, qx, qy, qz, qw = q[s.q_slice]
+            qpos[a:a + 7] = [x, y, z, qw, qx, qy, qz]
+        else:
+            qpos[a] = q[s.q_start]
+    return qpos
+
+
+FREE_JOINT_FILES = ([pytest.param(GYM / f"{g}.xml", id=f"gymnasium-{g}") for g in ("ant", "humanoid", "humanoidstandup")]
+                    + [pytest.param(ROBOSUITE / "robots" / r / "robot.xml", id=f"robosuite-{r}") for r in ("gr1", "spot")])
+
+
+@pytest.mark.parametrize("path", FREE_JOINT_FILES)
+def test_free_joints_are_floating_joints_agreeing_with_mujoco_and_pinocchio(path, rng):
+    """A free joint is a floating joint (7 entries of q, quaternion last as in Pinocchio): every body
+    pose at random configurations (random unit quaternions) equals mj_kinematics at the qpos with the
+    quaternion's w moved first, and Pinocchio's FK and Jacobians of the generated URDF."""
     if not path.is_file():
-        pytest.skip("robosuite is not installed")
-    with pytest.raises(UnsupportedJointError, match="is a free joint"):
-        load_mjcf(path)
+        pytest.skip(f"{path} is not installed")
+    model = load_mjcf(path)
+    m, _, _ = compile_mjcf(path.read_bytes(), base_dir=path.parent)
+    free = [s for s in model.layout if s.type == "floating"]
+    assert len(free) == 1 and free[0].q_start == 0 and model.nq == m.nq and model.nv == m.nv
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in range(m.nbody)]
+    names[0] = "world"
+    Q = model.sample_configurations(8, rng)
+    ours = compile_model(model).fk(Q, names)
+    worst = max(float(np.abs(ours[n] - body_poses(m, _qpos_of(m, model, q))).max()) for n, q in enumerate(Q))
+    assert worst < AGREEMENT_TOLERANCE
+    assert crosscheck.compare_fk(model, Q[:3]).worst < AGREEMENT_TOLERANCE
+    leaf = model.leaf_links[0]
+    assert crosscheck.compare_jacobian(model, Q[:3], leaf) < AGREEMENT_TOLERANCE
+
+
+def test_free_joint_qpos_is_the_body_pose_in_the_world():
+    model = parse_mjcf(FREE_BODY)
+    m, _, _ = compile_mjcf(FREE_BODY)
+    q = np.array([0.1, -0.2, 0.3, 0.0, 0.0, np.sin(0.25), np.cos(0.25), 0.4])  # a half-radian turn about z
+    T = compile_model(model).fk(q[None], ["torso"])[0, 0]
+    np.testing.assert_allclose(T[:3, 3], [0.1, -0.2, 0.3], atol=1e-15)
+    np.testing.assert_allclose(T, body_poses(m, _qpos_of(m, model, q))[1], atol=1e-15)
+
+
+FREE_BODY = """<mujoco model="free"><worldbody><body name="torso" pos="1 2 3" euler="0.1 0.2 0.3"><freejoint name="root"/>
+<body name="leg" pos="0 0 -0.3"><joint name="hip" range="-1 1" axis="0 1 0"/></body></body></worldbody></mujoco>"""
+
+
+def test_nested_free_joint_is_refused_by_mujoco():
+    with pytest.raises(MJCFError, match="free joint can only be used on top level"):
+        parse_mjcf(FREE_BODY.replace('<freejoint name="root"/>', "").replace(
+            '<joint name="hip" range="-1 1" axis="0 1 0"/>', '<freejoint name="root"/>'))
 
 
 ORIENTATIONS = """

@@ -62,10 +62,39 @@ def test_malformed_urdf_is_refused_naming_the_element(case, text, message):
     assert message in str(exc.value), str(exc.value)
 
 
-@pytest.mark.parametrize("jtype", ["floating", "planar"])
-def test_floating_and_planar_refused_naming_the_joint(jtype):
-    text = robot(f'<link name="a"/><link name="b"/><joint name="free" type="{jtype}"><parent link="a"/><child link="b"/></joint>')
-    with pytest.raises(UnsupportedJointError, match=f"joint 'free' is of type '{jtype}'"):
+def test_floating_and_planar_joints_are_read_in_pinocchios_layout():
+    text = robot('<link name="a"/><link name="b"/><link name="c"/>'
+                 '<joint name="free" type="floating"><parent link="a"/><child link="b"/></joint>'
+                 '<joint name="slide" type="planar"><parent link="b"/><child link="c"/><axis xyz="0 0 2"/></joint>')
+    m = parse_urdf(text)
+    assert m.joint_names == ("free", "slide") and (m.nq, m.nv, m.dof) == (11, 9, 9)
+    assert [s.as_dict() for s in m.layout] == [{"name": "free", "type": "floating", "q": [0, 7], "v": [0, 6]},
+                                               {"name": "slide", "type": "planar", "q": [7, 11], "v": [6, 9]}]
+    assert m.neutral.tolist() == [0, 0, 0, 0, 0, 0, 1, 0, 0, 1, 0]
+
+
+@pytest.mark.parametrize("axis", [None, "1 0 0", "0 1 0", "0 0 -1", "0 0.1 1"])
+def test_planar_joints_other_than_normal_z_are_refused(axis):
+    """Pinocchio makes every URDF planar joint move in the x-y plane of its frame, whatever its axis
+    (and URDF's default axis is x): any other normal would disagree with the reference silently."""
+    tag = "" if axis is None else f'<axis xyz="{axis}"/>'
+    text = robot(f'<link name="a"/><link name="b"/><joint name="slide" type="planar"><parent link="a"/>'
+                 f'<child link="b"/>{tag}</joint>')
+    with pytest.raises(UnsupportedJointError, match="planar joint 'slide' has plane normal"):
+        parse_urdf(text)
+
+
+@pytest.mark.parametrize("body", [
+    '<joint name="f" type="floating"><parent link="a"/><child link="b"/><mimic joint="r"/></joint>',
+    '<joint name="f" type="planar"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>'
+    '<joint name="m" type="revolute"><parent link="a"/><child link="d"/><axis xyz="0 0 1"/>'
+    '<limit lower="-1" upper="1" effort="1" velocity="1"/><mimic joint="f"/></joint>',
+])
+def test_mimic_of_or_by_a_multi_dof_joint_is_refused(body):
+    text = robot('<link name="a"/><link name="b"/><link name="c"/><link name="d"/>'
+                 '<joint name="r" type="revolute"><parent link="a"/><child link="c"/><axis xyz="0 0 1"/>'
+                 '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>' + body)
+    with pytest.raises(UnsupportedJointError, match="mimic"):
         parse_urdf(text)
 
 
