@@ -304,22 +304,27 @@ def compare_mjcf(model: RobotModel, path, Q: np.ndarray, skip=frozenset()) -> tu
     for n, q in enumerate(Q):
         qp = pin.neutral(pm)
         for jid in range(1, pm.njoints):
-            name, joint = pm.names[jid], pm.joints[jid]
-            qp[joint.idx_q:joint.idx_q + joint.nq] = _mjcf_joint_q(model, q, name, joint.nq, joint.nv)
+            joint = pm.joints[jid]
+            qp[joint.idx_q:joint.idx_q + joint.nq] = _mjcf_joint_q(model, q, pm, jid)
         pin.framesForwardKinematics(pm, data, qp)
         for k, link in enumerate(links):
             worst = max(worst, float(np.max(np.abs(ours[n, k] - data.oMf[bodies[link]].homogeneous))))
     return worst, len(links)
 
 
-def _mjcf_joint_q(model: RobotModel, q: np.ndarray, name: str, nq: int, nv: int) -> list[float]:
-    """Pinocchio's q of one joint of its MJCF model: a hinge or slide (``nq == 1``), an unbounded
-    hinge (``(cos, sin)``), or the composite joint that a body with several joints becomes
+def _mjcf_joint_q(model: RobotModel, q: np.ndarray, pm, jid: int) -> np.ndarray:
+    """Pinocchio's q of joint ``jid`` of its MJCF model: a hinge or slide (``nq == 1``), an unbounded
+    hinge (``(cos, sin)``), a free joint (ours is the floating joint above the same body: the same
+    7 values), or the composite joint that a body with several joints becomes
     (``Composite_<first joint>``: the body's joints, consecutive in document order)."""
-    if name.startswith("Composite_") and name not in model.q_index:
-        first = model.q_index[name[len("Composite_"):]]
+    name, nq, nv = pm.names[jid], pm.joints[jid].nq, pm.joints[jid].nv
+    if nq == 7 and nv == 6:
+        body = next(f.name for f in pm.frames if f.type == pin.FrameType.BODY and f.parentJoint == jid)
+        return q[model.slot[model.parent_joint[body].name].q_slice]
+    if name.startswith("Composite_") and name not in model.slot:
+        first = model.slot[name[len("Composite_"):]].q_start
         if nq != nv:
             raise ReferenceUnavailableError(f"composite joint {name!r} holds unbounded joints")
-        return list(q[first:first + nq])
-    value = q[model.q_index[name]]
-    return [value] if nq == 1 else [np.cos(value), np.sin(value)]
+        return q[first:first + nq]
+    value = q[model.slot[name].q_start]
+    return np.array([value] if nq == 1 else [np.cos(value), np.sin(value)])
