@@ -451,7 +451,7 @@ class _SymbolicOptions(BaseModel):
                                    "(strings sympy.sympify reads), python (numpy module), c (C99 functions)")
     simplify: bool = Field(default=True, description="combine and collect terms (false: the expanded forms, fastest)")
     representation: TaskRepresentationName | None = Field(
-        default=None, description=_REPRESENTATION_DESC + " (symbolic: rpy, zyx, zyz and the subsets); default rpy")
+        default=None, description=_REPRESENTATION_DESC + "; default rpy (quaternion: the qw >= 0 branch, valid where qw > 0; rotvec: valid below a half turn)")
     components: list[str] | None = Field(default=None, description="keep these components of the task vector")
     variables: Literal["q", "names"] = Field(default="q", description="joint variables q1..qn, or the joint names")
     prefix: str = Field(default="", max_length=64, description="prefix of the C function names")
