@@ -4,7 +4,9 @@ Both endpoints take either a JSON body (``FKRequest`` / ``JacobianRequest``) or,
 ``Content-Type: application/x-npy``, an ``(N, dof)`` float64 array with the other options
 as query parameters. ``Accept: application/x-npy`` returns ``(N, links, 4, 4)`` poses or
 ``(N, 6, dof)`` Jacobians, with the link order in ``X-Links`` and the joint order in
-``X-Joint-Names`` (comma-separated, each name percent-encoded).
+``X-Joint-Names`` (comma-separated, each name percent-encoded). The Jacobian's
+``representation`` answers the analytic Jacobian ``J_r`` and ``r`` of :func:`kinematics.api.task`
+instead (``.npy``: ``(N, m, dof + 1)``, ``[J_r | r]``).
 """
 
 from __future__ import annotations
