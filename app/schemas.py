@@ -319,6 +319,14 @@ class FKResponse(BaseModel):
     verification: FKVerification | None = None
 
 
+TaskRepresentationName = Literal["rpy", "zyx", "zyz", "quaternion", "rotvec", "position", "scara", "planar"]
+_REPRESENTATION_DESC = ("task vector r = (p, phi): rpy | zyx | zyz | quaternion | rotvec, or a named subset: "
+                        "position (px, py, pz), scara (px, py, pz, alpha_z), planar (px, py, phi)")
+_ANALYTIC_DESC = ("the analytic Jacobian J_r = dr/dq of this task vector instead of the geometric one "
+                  "(POST /models/{id}/task's use case): jacobian is m x dof and r is given; reference must be "
+                  "absent or local_world_aligned (J_r is built from that one), verify is not available")
+
+
 class JacobianRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     q: JointValues = Field(description=_Q_DESC)
@@ -331,6 +339,9 @@ class JacobianRequest(BaseModel):
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
     floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
     normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
+    representation: Union[TaskRepresentationName, None] = Field(default=None, description=_ANALYTIC_DESC)
+    components: list[str] | None = Field(default=None, description="with representation: keep these components "
+                                         "of the task vector (default all)")
 
 
 class JacobianResponse(BaseModel):
@@ -338,13 +349,17 @@ class JacobianResponse(BaseModel):
     link: str
     reference: References
     joint_names: list[str] = Field(description="the order of the columns")
-    jacobian: Union[Matrix, list[Matrix]] = Field(description="6 x dof, linear rows first (batch: one per configuration)")
+    jacobian: Union[Matrix, list[Matrix]] = Field(description="6 x dof, linear rows first (batch: one per configuration); "
+                                                  "with representation: J_r = dr/dq, m x dof, rows as components")
     singular_values: Union[Vector, list[Vector]]
     manipulability: Union[float, list[float]] = Field(description="product of the singular values")
     condition_number: Union[float, None, list[Union[float, None]]] = Field(
         description="largest / smallest singular value; null at a singularity (infinite)")
     out_of_limits: Union[list[str], list[list[str]]]
     verification: JacobianVerification | None = None
+    representation: str | None = Field(default=None, description="with representation: its name")
+    components: list[str] | None = Field(default=None, description="with representation: the rows of jacobian and r")
+    r: Union[Vector, list[Vector], None] = Field(default=None, description="with representation: the task vector")
 
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
@@ -453,9 +468,6 @@ VELOCITY_EXAMPLES = {
 # ---------------------------------------------------------------------- closed forms and task vectors
 SymbolicWhat = Literal["transforms", "jacobian", "task"]
 SymbolicFormat = Literal["latex", "python", "c", "text"]
-TaskRepresentationName = Literal["rpy", "zyx", "zyz", "quaternion", "rotvec", "position", "scara", "planar"]
-_REPRESENTATION_DESC = ("task vector r = (p, phi): rpy | zyx | zyz | quaternion | rotvec, or a named subset: "
-                        "position (px, py, pz), scara (px, py, pz, alpha_z), planar (px, py, phi)")
 
 
 class _SymbolicOptions(BaseModel):
@@ -467,7 +479,7 @@ class _SymbolicOptions(BaseModel):
                                    "(strings sympy.sympify reads), python (numpy module), c (C99 functions)")
     simplify: bool = Field(default=True, description="combine and collect terms (false: the expanded forms, fastest)")
     representation: TaskRepresentationName | None = Field(
-        default=None, description=_REPRESENTATION_DESC + " (symbolic: rpy, zyx, zyz and the subsets); default rpy")
+        default=None, description=_REPRESENTATION_DESC + "; default rpy (quaternion: the qw >= 0 branch, valid where qw > 0; rotvec: valid below a half turn)")
     components: list[str] | None = Field(default=None, description="keep these components of the task vector")
     variables: Literal["q", "names"] = Field(default="q", description="joint variables q1..qn, or the joint names")
     prefix: str = Field(default="", max_length=64, description="prefix of the C function names")
@@ -641,6 +653,10 @@ JACOBIAN_EXAMPLES = {
     "ur5_batch_lwa": {
         "summary": "UR5, a batch, local_world_aligned",
         "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "link": "tool0", "reference": "local_world_aligned"},
+    },
+    "ur5_analytic_rpy": {
+        "summary": "UR5 tool0, analytic Jacobian of (px, py, pz, roll, pitch, yaw)",
+        "value": {"q": [0, -1.2, 1.5, -0.4, 1.1, 0.3], "link": "tool0", "representation": "rpy"},
     },
 }
 DH_EXAMPLE_TABLE = {

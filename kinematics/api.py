@@ -598,14 +598,20 @@ class TaskAnswer(_Answer):
     r: np.ndarray
     J_r: np.ndarray
 
+    def conditioning(self) -> dict[str, np.ndarray]:
+        """Singular values, manipulability and condition number of each ``J_r``."""
+        return conditioning(self.J_r)
+
 
 def task(model: RobotModel, q: Any, *, link: str | None = None, representation: str = "rpy",
-         components: Sequence[str] | None = None, base: Any = None, limits: str = "report",
-         budget: Budget = UNBOUNDED) -> TaskAnswer:
+         components: Sequence[str] | None = None, base: Any = None, point: Any = None, tool: Any = None,
+         limits: str = "report", budget: Budget = UNBOUNDED) -> TaskAnswer:
     """Task vectors ``r = (p, phi)`` of ``link`` (None: the first leaf link) and their analytic
     Jacobians ``J_r = dr/dq = blockdiag(I, E(phi)^-1) J`` (:mod:`kinematics.algorithms.task`),
-    for joint values ``q`` in the world of ``base``; ``limits`` as :func:`fk`. At a singularity
-    of the representation: :class:`~kinematics.errors.RepresentationSingularityError`."""
+    for joint values ``q`` in the world of ``base``; ``point`` / ``tool``: of the frame at that
+    offset from the link (as :func:`fk`); ``limits`` as :func:`fk`. At a singularity
+    of the representation: :class:`~kinematics.errors.RepresentationSingularityError`.
+    The Jacobian route's ``representation`` option answers this too."""
     from .algorithms.task import task as _task, task_representation
 
     rep = task_representation(representation, components)
@@ -615,7 +621,7 @@ def task(model: RobotModel, q: Any, *, link: str | None = None, representation: 
     compile_model(model).link_indices([link])
     N = Q.shape[0]
     budget.check_result(N * rep.size * (model.dof + 1), f"{N} configurations x {rep.size} x ({model.dof} + 1)")
-    r, J_r = _task(model, Q, link, rep, base_poses(base, N))
+    r, J_r = _task(model, Q, link, rep, base_poses(base, N), tool_offset(point, tool))
     return TaskAnswer(model, Q, is_batch, link, rep, r, J_r)
 
 

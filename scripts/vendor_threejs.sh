@@ -24,7 +24,8 @@ npm init -y >/dev/null
 npm install --no-audit --no-fund --ignore-scripts --silent "three@$THREE_VERSION"
 PKG="$TMP/node_modules/three"
 
-rm -rf "$DEST"
+# only three.js's own files: vendor/katex/ belongs to scripts/vendor_katex.sh
+rm -rf "$DEST/addons" "$DEST/three.module.js" "$DEST/three.core.js" "$DEST/LICENSE" "$DEST/README.md"
 mkdir -p "$DEST/addons/controls"
 cp "$PKG/build/three.module.js" "$DEST/"
 # Since r16x three.module.js re-exports from three.core.js; copy it when present.
@@ -42,4 +43,4 @@ NOTE
 # OrbitControls and TransformControls import only 'three': the import map resolves it, so no
 # rewriting is needed.
 echo "vendored three@$THREE_VERSION into $DEST:"
-(cd "$DEST" && find . -type f | sort)
+(cd "$DEST" && find . -path ./katex -prune -o -type f -print | sort)

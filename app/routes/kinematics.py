@@ -4,7 +4,9 @@ Both endpoints take either a JSON body (``FKRequest`` / ``JacobianRequest``) or,
 ``Content-Type: application/x-npy``, an ``(N, dof)`` float64 array with the other options
 as query parameters. ``Accept: application/x-npy`` returns ``(N, links, 4, 4)`` poses or
 ``(N, 6, dof)`` Jacobians, with the link order in ``X-Links`` and the joint order in
-``X-Joint-Names`` (comma-separated, each name percent-encoded).
+``X-Joint-Names`` (comma-separated, each name percent-encoded). The Jacobian's
+``representation`` answers the analytic Jacobian ``J_r`` and ``r`` of :func:`kinematics.api.task`
+instead (``.npy``: ``(N, m, dof + 1)``, ``[J_r | r]``).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from ..metrics import record_configurations
 from ..npy import decode_q, names_header
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
-                       Problem)
+                       Problem, TaskRepresentationName)
 from ..settings import Settings
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
@@ -62,12 +64,14 @@ class Call:
     links: Any = None  # FK: None | "all" | list[str]
     format: str = "pose"
     link: str | None = None  # Jacobian
-    reference: str = "world"
+    reference: str | None = None  # None: not given (world)
     base: Any = None  # T_world_root: one pose or one per configuration (JSON bodies)
     point: Any = None  # [x, y, z] in the link frame
     tool: Any = None  # T_link_tool (JSON bodies)
     floating_base: bool = False  # the model on a free-flyer root joint
     normalize: bool = False  # scale quaternions and planar (cos, sin) to unit norm
+    representation: str | None = None  # Jacobian: a task representation (analytic Jacobian)
+    components: Any = None  # ... and the components kept
 
 
 def parse_point(value: str | None) -> list[float] | None:
@@ -129,6 +133,8 @@ async def _read_call(request: Request, settings: Settings, schema, query: dict) 
     req = schema.model_validate_json(body)
     _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
     fields = req.model_dump(exclude={"q"})
+    if "reference" in fields and "reference" not in req.model_fields_set:
+        fields["reference"] = None  # the default, world; told apart from an explicit one (representation)
     return Call(q=req.q, **fields)
 
 
@@ -150,16 +156,22 @@ async def read_fk_call(
 async def read_jacobian_call(
     request: Request, settings: SettingsDep,
     link: Annotated[str | None, Query(description=".npy bodies: the link (default: the first leaf link)")] = None,
-    reference: Annotated[Reference, Query(description=".npy bodies: reference")] = Reference.WORLD,
+    reference: Annotated[Reference | None, Query(description=".npy bodies: reference (default world)")] = None,
     verify: Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")] = False,
     limits: Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")] = "report",
     point: PointQuery = None,
     floating_base: FloatingBaseQuery = False,
     normalize: NormalizeQuery = False,
+    representation: Annotated[TaskRepresentationName | None, Query(
+        description=".npy bodies: the analytic Jacobian of this task representation; the answer is then "
+                    "(N, m, dof + 1): J_r in the first dof columns, r in the last")] = None,
+    components: Annotated[list[str] | None, Query(
+        description=".npy bodies with representation: components kept (repeat or comma-separate)")] = None,
 ) -> Call:
     return await _read_call(request, settings, JacobianRequest,
                             {"link": link, "reference": reference, "verify": verify, "limits": limits,
-                             "point": parse_point(point), "floating_base": floating_base, "normalize": normalize})
+                             "point": parse_point(point), "floating_base": floating_base, "normalize": normalize,
+                             "representation": representation, "components": _split_names(components)})
 
 
 async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
@@ -238,13 +250,21 @@ async def jacobian(model_id: ModelId, call: Annotated[Call, Depends(read_jacobia
     (largest / smallest; `null` at a singularity). `verify: true` compares with Pinocchio.
     `point` / `tool`: the Jacobian of the frame at that offset from the link (Pinocchio's frame
     semantics: the `local_world_aligned` reference point is its origin, `local` its axes).
+    `representation` (`rpy`, `zyx`, `zyz`, `quaternion`, `rotvec`, `position`, `scara`, `planar`;
+    `components` to keep some): the analytic Jacobian `J_r = dr/dq` (m x dof) of the task vector
+    `r` (also answered) instead, as `POST /models/{id}/task` computes it; at a singularity of the
+    representation 422 `representation-singularity`. `.npy`: `?representation=`, answer (N, m, dof + 1),
+    `[J_r | r]`, rows named in `X-Components`.
     """
     return await _run(_jacobian, model_id, call, request, registry, settings)
 
 
 def _jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
+    if call.representation is not None or call.components is not None:
+        return _analytic_jacobian(model_id, call, request, registry, settings)
     rec = registry.get(model_id)
-    answer = api.jacobian(rec.model, call.q, link=call.link, reference=call.reference, base=call.base,
+    reference = Reference.WORLD if call.reference is None else call.reference
+    answer = api.jacobian(rec.model, call.q, link=call.link, reference=reference, base=call.base,
                           point=call.point, tool=call.tool, verify=call.verify, limits=call.limits,
                           budget=_budget(settings), floating_base=call.floating_base, normalize=call.normalize)
     record_configurations("jacobian", _configurations(call.q))
@@ -270,3 +290,43 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
     return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": answer.reference.value,
                              "joint_names": list(answer.model.joint_names), **body,
                              "verification": verification.as_dict() if verification else None})
+
+
+def _analytic_jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
+    """The Jacobian route with ``representation``: ``J_r = dr/dq`` and ``r`` (:func:`kinematics.api.task`)."""
+    if call.representation is None:
+        raise ProblemError(422, "components: only with representation (the analytic Jacobian's task vector)",
+                           slug="validation-error", field="components")
+    if call.reference not in (None, Reference.LOCAL_WORLD_ALIGNED):
+        raise ProblemError(422, f"reference: {Reference(call.reference).value!r} with representation; the analytic "
+                           "Jacobian is built from local_world_aligned (leave reference out)",
+                           slug="validation-error", field="reference")
+    if call.floating_base:
+        raise ProblemError(422, "floating_base: not available with representation (task vectors are built on "
+                           "one-degree-of-freedom joints)", slug="validation-error", field="floating_base")
+    if call.verify:
+        raise ProblemError(422, "verify: not available with representation (Pinocchio has no analytic Jacobian); "
+                           "verify the geometric Jacobian without representation",
+                           slug="validation-error", field="verify")
+    rec = registry.get(model_id)
+    answer = api.task(rec.model, call.q, link=call.link, representation=call.representation,
+                      components=call.components, base=call.base, point=call.point, tool=call.tool,
+                      limits=call.limits, budget=_budget(settings))
+    record_configurations("jacobian", _configurations(call.q))
+    labels = list(answer.representation.labels)
+    if wants_npy(request):
+        headers = _names_headers([answer.link], rec.model.joint_names)
+        headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": Reference.LOCAL_WORLD_ALIGNED.value,
+                        "X-Representation": answer.representation.name, "X-Components": ",".join(labels),
+                        "X-Out-Of-Limits": str(answer.out_of_limits_count())})
+        return NpyResponse(np.concatenate([answer.J_r, answer.r[:, :, None]], axis=2), headers=headers)
+    oob = answer.out_of_limits()
+    measures = answer.conditioning()
+    cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
+    k = slice(None) if answer.is_batch else 0
+    body = {"jacobian": answer.J_r[k], "r": answer.r[k], "singular_values": measures["singular_values"][k],
+            "manipulability": measures["manipulability"][k].tolist(), "condition_number": cond if answer.is_batch
+            else cond[0], "out_of_limits": oob if answer.is_batch else oob[0]}
+    return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": Reference.LOCAL_WORLD_ALIGNED.value,
+                             "representation": answer.representation.name, "components": labels,
+                             "joint_names": list(rec.model.joint_names), **body, "verification": None})

@@ -1,11 +1,12 @@
 """The model viewer: a browser page that draws any model and calls the API to move it.
 
 ``GET /viewer`` and ``GET /viewer/{id}`` return the page; ``GET /viewer/static/{path}``
-its files (HTML, JS, CSS and a vendored copy of three.js, see
-``scripts/vendor_threejs.sh``); ``GET /viewer/api/{id}/visuals`` the primitive visual
+its files (HTML, JS, CSS and vendored copies of three.js and KaTeX, see
+``scripts/vendor_threejs.sh`` and ``scripts/vendor_katex.sh``); ``GET /viewer/api/{id}/visuals`` the primitive visual
 geometry of a model's links, which the model info does not carry. The page does no
 kinematics itself: it calls ``POST /models/{id}/fk``, ``/jacobian`` and, for its draggable IK
-target (three.js's ``TransformControls``, vendored too), ``/ik``.
+target (three.js's ``TransformControls``, vendored too), ``/ik``; its "Closed form" tab and DH
+editor ``POST /models/{id}/symbolic`` and ``/symbolic/dh`` (LaTeX typeset by KaTeX).
 
 The page loads nothing from outside the service: its scripts are served here, and its
 ``Content-Security-Policy`` allows only this origin (plus the page's one inline import
@@ -102,6 +103,8 @@ def viewer_static(path: str) -> FileResponse:
     media_type = mimetypes.guess_type(target.name)[0] or "application/octet-stream"
     if target.suffix == ".js":
         media_type = "text/javascript"
+    elif target.suffix == ".woff2":  # KaTeX's fonts (mimetypes does not know woff2 everywhere)
+        media_type = "font/woff2"
     return FileResponse(target, media_type=media_type, headers={"Cache-Control": STATIC_CACHE_CONTROL})
 
 

@@ -68,8 +68,12 @@ WHAT = ("transforms", "jacobian", "task")
 #: the Jacobians of a closed form (Pinocchio's meaning; linear rows first)
 JACOBIAN_REFERENCES = ("local_world_aligned", "world")
 VARIABLE_STYLES = ("q", "names")
-#: rotation representations with symbolic task vectors (atan2 forms; quaternions and rotation vectors are numeric only)
-SYMBOLIC_ROTATIONS = ("rpy", "zyx", "zyz")
+#: rotation representations with symbolic task vectors: atan2 forms (Euler angles); the quaternion's
+#: qw >= 0 branch (valid where qw > 0); the rotation vector through atan2 (valid for angles below pi)
+SYMBOLIC_ROTATIONS = ("rpy", "zyx", "zyz", "quaternion", "rotvec")
+#: the rotation vector's closed form switches to its series ``(1/2 + (1 - cos theta)/6) v`` when
+#: ``cos theta`` is above this (theta below 1e-4 rad: the series' error is below 1e-18 rad there)
+ROTVEC_SERIES_COS = 1 - 5e-9
 #: most moving joints on a chain whose closed forms are derived
 MAX_SYMBOLIC_JOINTS = 24
 #: longest expression accepted in a table entry (characters)
@@ -773,6 +777,8 @@ class TaskForms:
     representation: TaskRepresentation
     r: sp.Matrix
     J_r: sp.Matrix
+    #: built piece by piece (quaternions, rotation vectors): already tidied, not simplified again
+    structured: bool = False
 
 
 @dataclass(eq=False)
@@ -817,6 +823,62 @@ def _task_expressions(T: sp.Matrix, rep: TaskRepresentation) -> sp.Matrix:
         values.update(phi=_atan2(R[1, 2], R[0, 2]), theta=_atan2(sp.sqrt(sp.expand(R[0, 2] ** 2 + R[1, 2] ** 2)), R[2, 2]),
                       psi=_atan2(R[2, 1], -R[2, 0]))
     return sp.Matrix([values[c] for c in rep.components])
+
+
+def _rotation_forms(rotation: str, trace: sp.Expr, v: Sequence[sp.Expr]) -> dict[str, sp.Expr]:
+    """The unit quaternion (``qw >= 0``) or the rotation vector of a rotation matrix ``R``, given
+    ``trace = tr R`` and ``v = (R32 - R23, R13 - R31, R21 - R12)`` (``= 2 sin(theta) u``).
+
+    Quaternion, the ``qw >= 0`` branch: ``qw = sqrt(1 + tr R) / 2``, ``(qx, qy, qz) = v / (4 qw)``;
+    valid where ``qw > 0`` (rotation angles below pi), where it equals the numeric quaternion
+    (``w >= 0``); its derivatives grow as ``1/qw`` towards a half turn (the numeric ``J_r``'s singularity).
+
+    Rotation vector: with ``c = (tr R - 1)/2`` and ``s = |v|/2`` (``cos theta``, ``sin theta``),
+    ``theta = atan2(s, c)`` and ``r = theta / (2 s) v``; near the identity (``c >`` :data:`ROTVEC_SERIES_COS`)
+    the series ``r = (1/2 + (1 - c)/6) v`` instead, so ``r`` and ``J_r`` are finite there (a
+    ``Piecewise``). Valid for ``theta < pi``: at a half turn ``v = 0`` and the direction is lost.
+    """
+    if rotation == "quaternion":
+        root = sp.sqrt(1 + trace)
+        return {"qw": root / 2, "qx": v[0] / (2 * root), "qy": v[1] / (2 * root), "qz": v[2] / (2 * root)}
+    c = (trace - 1) / 2
+    s = sp.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) / 2
+    general = sp.atan2(s, c) / (2 * s)
+    series = sp.Rational(1, 2) + (1 - c) / 6
+    cond = c > sp.Float(ROTVEC_SERIES_COS, 17)
+    return {name: sp.Piecewise((series * vi, cond), (general * vi, True)) for name, vi in zip(("rx", "ry", "rz"), v)}
+
+
+def _quaternion_rotvec_task(T: sp.Matrix, rep: TaskRepresentation, variables: Sequence[sp.Symbol],
+                            simplify: bool) -> tuple[sp.Matrix, sp.Matrix]:
+    """``r`` and ``J_r`` of a quaternion or rotation-vector task, by the chain rule through the
+    polynomial pieces ``tr R`` and ``v`` (:func:`_rotation_forms`): the pieces and their derivatives
+    are expanded (and tidied with ``simplify``), the square roots and atan2 around them are not,
+    so the forms stay the size of a few Jacobians (expanding them whole does not end for a UR5)."""
+    R = T[:3, :3]
+    tidy = (lambda e: _tidy(e, variables)) if simplify else (lambda e: e)
+    pieces = [_clean(R[0, 0] + R[1, 1] + R[2, 2]), _clean(R[2, 1] - R[1, 2]), _clean(R[0, 2] - R[2, 0]),
+              _clean(R[1, 0] - R[0, 1])]
+    rates = [[tidy(_clean(sp.diff(p, q))) for q in variables] for p in pieces]
+    P = sp.symbols("_P0:4", real=True, cls=sp.Dummy)
+    forms = _rotation_forms(rep.rotation, P[0], P[1:])
+    back = dict(zip(P, [tidy(p) for p in pieces]))
+    rows_r, rows_J = [], []
+    for comp in rep.components:
+        if comp in ("px", "py", "pz"):
+            e = T["xyz".index(comp[1]), 3]
+            rows_r.append(e)
+            rows_J.append([_clean(sp.diff(e, q)) for q in variables])
+            if simplify:
+                rows_r[-1] = tidy(e)
+                rows_J[-1] = [tidy(d) for d in rows_J[-1]]
+            continue
+        f = forms[comp]
+        partial = [sp.diff(f, p) for p in P]
+        rows_r.append(f.xreplace(back))
+        rows_J.append([sp.Add(*[d * rates[k][j] for k, d in enumerate(partial) if rates[k][j] != 0]).xreplace(back)
+                       for j in range(len(variables))])
+    return sp.Matrix(rows_r), sp.Matrix(len(rows_J), len(variables), [e for row in rows_J for e in row])
 
 
 def _nest(e: sp.Expr, variables: Sequence[sp.Symbol]) -> sp.Expr:
@@ -885,7 +947,8 @@ def closed_forms(chain: SymbolicChain, what: Sequence[str] = ("transforms", "jac
     ``what``: ``transforms`` (the factors, frames and T; always computed), ``jacobian``
     (``local_world_aligned`` and ``world``, 6 x n), ``task`` (``r`` and ``J_r`` in ``task``, a
     :class:`~kinematics.algorithms.task.TaskRepresentation` with a symbolic rotation: ``rpy``,
-    ``zyx``, ``zyz`` or a named subset). ``simplify``: also sympy's ``simplify`` on every entry.
+    ``zyx``, ``zyz``, ``quaternion``, ``rotvec`` (:func:`_rotation_forms` says where those two are valid)
+    or a named subset). ``simplify``: also sympy's ``simplify`` on every entry.
     """
     start = time.perf_counter()
     unknown = [w for w in what if w not in WHAT]
@@ -937,7 +1000,10 @@ def closed_forms(chain: SymbolicChain, what: Sequence[str] = ("transforms", "jac
         jacobians["local_world_aligned"] = lin.col_join(ang)
         jacobians["world"] = screw_lin.applyfunc(_reduce_squares).col_join(ang)
     task_forms = None
-    if "task" in what:
+    if "task" in what and task.rotation in ("quaternion", "rotvec") and any(
+            c not in ("px", "py", "pz") for c in task.components):
+        task_forms = TaskForms(task, *_quaternion_rotvec_task(T, task, chain.variables, simplify), structured=True)
+    elif "task" in what:
         r = _task_expressions(T, task)
         J_r = r.jacobian(sp.Matrix(chain.variables))
         task_forms = TaskForms(task, r, J_r.applyfunc(_clean))
@@ -963,7 +1029,7 @@ def simplify_forms(forms: ClosedForms) -> None:
     forms.A = [a.applyfunc(simp) for a in forms.A]
     forms.frames = [f.applyfunc(simp) for f in forms.frames]
     forms.jacobians = {k: J.applyfunc(simp) for k, J in forms.jacobians.items()}
-    if forms.task is not None:
+    if forms.task is not None and not forms.task.structured:
         forms.task = TaskForms(forms.task.representation, forms.task.r.applyfunc(simp),
                                forms.task.J_r.applyfunc(simp))
     forms.simplified = True

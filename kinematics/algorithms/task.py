@@ -258,12 +258,13 @@ def analytic_jacobian(T: np.ndarray, J: np.ndarray, rep: TaskRepresentation) -> 
     return np.stack([rows[c] for c in rep.components], axis=1)
 
 
-def task(model: RobotModel, Q, link: str, rep: TaskRepresentation, base: np.ndarray | None = None
-         ) -> tuple[np.ndarray, np.ndarray]:
+def task(model: RobotModel, Q, link: str, rep: TaskRepresentation, base: np.ndarray | None = None,
+         tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(r (N, m), J_r (N, m, dof))`` of ``link`` at joint values ``Q`` (N, dof); ``base``:
-    ``T_world_root`` per configuration, or None for the root frame."""
+    ``T_world_root`` per configuration, or None for the root frame; ``tool``: ``T_link_tool``
+    (4x4, or None): the task vector of that frame instead of the link's."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    T = poses_in_world(forward_kinematics(model, Q, [link]), base)[:, 0]
-    J = jacobian_in_world(_jacobian(model, Q, link, Reference.LOCAL_WORLD_ALIGNED), base,
+    T = poses_in_world(forward_kinematics(model, Q, [link], tool=tool), base)[:, 0]
+    J = jacobian_in_world(_jacobian(model, Q, link, Reference.LOCAL_WORLD_ALIGNED, tool=tool), base,
                           Reference.LOCAL_WORLD_ALIGNED)
     return task_vector(T, rep), analytic_jacobian(T, J, rep)

@@ -1,7 +1,9 @@
 // Model viewer: draws a model of the service as a kinematic skeleton and lets a person move
 // its joints, or drag an IK target for a link. All kinematics comes from the service
 // (POST /models/{id}/fk, /jacobian, /ik): this file does no robotics math, it only places what
-// the service returns.
+// the service returns. The "Closed form" tab and the DH editor show the service's closed forms
+// (POST /models/{id}/symbolic, /symbolic/dh, format latex), typeset by the vendored KaTeX
+// (vendor/katex/, a classic script defining window.katex).
 //
 // Frames: the scene is the world frame of the model (the root link's frame), z up, metres.
 // Every link pose comes from FK with links "all" as T_world_link (row-major 4x4). There is no
@@ -62,13 +64,23 @@ const state = {
   ikBusy: false,      // a request in flight, or a target change not sent yet
   ikLast: null,       // {link, mode, target, seed, q, success, position_error, rotation_error, iterations}
   ikStatus: "",
+  cfRequests: 0,
+  cfResponses: 0,
+  closedForm: null,   // {tip, ok, katex (elements typeset), items, status}
+  dhClosed: null,     // {ok, parameters, katex, status}
 };
 window.viewerState = state;
 
 const $ = (id) => document.getElementById(id);
 
 // ---------------------------------------------------------------------------- API
-class ApiError extends Error {}
+class ApiError extends Error {
+  constructor(message, status = null, type = null) {
+    super(message);
+    this.status = status;   // HTTP status of a problem answer
+    this.type = type;       // its problem type (urn:kinematics:problem:<slug>)
+  }
+}
 
 async function api(path, { method = "GET", body, text = false, binary = null } = {}) {
   const init = { method, headers: {} };
@@ -87,15 +99,17 @@ async function api(path, { method = "GET", body, text = false, binary = null } =
   }
   if (!response.ok) {
     let detail = `${response.status} ${response.statusText}`;
+    let type = null;
     try {
       const problem = await response.json();
+      if (problem && typeof problem.type === "string") type = problem.type;
       if (problem && problem.detail !== undefined) {
         detail = typeof problem.detail === "string" ? problem.detail : JSON.stringify(problem.detail);
       } else if (problem && problem.title) {
         detail = problem.title;
       }
     } catch (_) { /* not JSON: keep the status line */ }
-    throw new ApiError(`${method} ${path}: ${detail}`);
+    throw new ApiError(`${method} ${path}: ${detail}`, response.status, type);
   }
   if (binary) return response.arrayBuffer();
   return text ? response.text() : response.json();
@@ -1192,6 +1206,7 @@ async function loadModel(id, { push = true } = {}) {
     if (model.id === undefined) model.id = id;
     state.modelId = model.id;
     buildLinkList(info);
+    fillClosedFormTips(info);
     buildRobot(info, visuals, fk.poses);
     applyPoses(fk.poses);
     resize();
@@ -1255,8 +1270,122 @@ for (const button of document.querySelectorAll(".tabs button")) {
   button.addEventListener("click", () => {
     for (const b of document.querySelectorAll(".tabs button")) b.classList.toggle("active", b === button);
     for (const tab of document.querySelectorAll(".tab")) tab.hidden = tab.id !== `tab-${button.dataset.tab}`;
+    $("left").classList.toggle("wide", button.dataset.tab === "closed");
+    resize();
   });
 }
+
+// ---------------------------------------------------------------------------- closed forms (KaTeX)
+const PROBLEM_PREFIX = "urn:kinematics:problem:";
+let cfSeq = 0;
+
+/** Typeset `tex` into `element` with the vendored KaTeX (DOM nodes: no inline style attributes). */
+function typeset(tex, element) {
+  if (!window.katex) throw new Error("KaTeX did not load (vendor/katex/katex.min.js)");
+  window.katex.render(tex, element, { displayMode: true, throwOnError: false, strict: "ignore" });
+}
+
+/** Render a symbolic answer (format latex) into `container`: T, and on request the factors A_i
+ * (with base and tool) and the Jacobians. Returns the number of typeset items. */
+function renderClosedForm(container, body, { factors = false, jacobian = false } = {}) {
+  container.replaceChildren();
+  const items = [[`T_world_${body.tip}`, `T = ${body.T}`]];
+  if (factors) {
+    if (body.base) items.push(["base", `\\mathrm{base} = ${body.base}`]);
+    (body.A || []).forEach((a, i) => items.push([`A_${i + 1}: frame ${body.frames[i]}`, `A_{${i + 1}} = ${a}`]));
+    if (body.tool) items.push(["tool", `\\mathrm{tool} = ${body.tool}`]);
+  }
+  if (jacobian && body.jacobian) {
+    for (const [reference, m] of Object.entries(body.jacobian)) {
+      items.push([`Jacobian, ${reference} (6 x n, linear rows first)`, `J = ${m}`]);
+    }
+  }
+  const vars = (body.joint_variables || []).map((v) => `${v.symbol} = ${v.joint}`);
+  const note = document.createElement("p");
+  note.className = "cf-variables";
+  note.textContent = [vars.length ? `joint variables: ${vars.join(", ")}` : "no joint variables",
+    body.parameters && body.parameters.length ? `parameters: ${body.parameters.join(", ")}` : "",
+    `derived in ${Number(body.seconds).toFixed(2)} s${body.simplified ? " (simplified)" : ""}`]
+    .filter(Boolean).join("; ");
+  container.appendChild(note);
+  for (const [label, tex] of items) {
+    const item = document.createElement("div");
+    item.className = "cf-item";
+    const caption = document.createElement("div");
+    caption.className = "cf-label";
+    caption.textContent = label;
+    const math = document.createElement("div");
+    math.className = "cf-math";
+    item.append(caption, math);
+    container.appendChild(item);
+    typeset(tex, math);
+  }
+  return items.length;
+}
+
+/** A problem answer of a symbolic request, said plainly (413/422: limits, time limit, bad input). */
+function closedFormProblem(err) {
+  const slug = err.type && err.type.startsWith(PROBLEM_PREFIX) ? err.type.slice(PROBLEM_PREFIX.length) : null;
+  const hints = {
+    "symbolic-timeout": "The derivation ran over the service's time limit: untick simplify, or pick a tip nearer the root.",
+    "invalid-symbolic-request": "The service cannot derive this chain's closed form as asked.",
+    "invalid-dh-table": "The table cannot be read: check the cells named.",
+  };
+  const head = err.status ? `${err.status}${slug ? ` ${slug}` : ""}: ` : "";
+  const hint = (slug && hints[slug]) || (err.status === 413 ? "The request is over a limit of the service." : "");
+  return `${head}${err.message}${hint ? ` ${hint}` : ""}`;
+}
+
+function fillClosedFormTips(info) {
+  const select = $("cf-tip");
+  select.replaceChildren();
+  for (const link of info.links) {
+    const opt = document.createElement("option");
+    opt.value = link;
+    opt.textContent = info.leaf_links && info.leaf_links.includes(link) ? `${link} (leaf)` : link;
+    select.appendChild(opt);
+  }
+  select.value = defaultLink(info);
+  $("cf-output").replaceChildren();
+  $("cf-status").textContent = "";
+  $("cf-status").className = "";
+  state.closedForm = null;
+}
+
+async function deriveClosedForm() {
+  if (!model) return;
+  const seq = ++cfSeq;
+  const tip = $("cf-tip").value;
+  const factors = $("cf-factors").checked;
+  const jacobian = $("cf-jacobian").checked;
+  const what = jacobian ? ["transforms", "jacobian"] : ["transforms"];
+  const status = $("cf-status");
+  status.className = "";
+  status.textContent = `Deriving the closed form to ${tip}...`;
+  $("cf-derive").disabled = true;
+  state.cfRequests += 1;
+  try {
+    const body = await api(`/models/${encodeURIComponent(model.id)}/symbolic`, {
+      method: "POST", body: { tip, what, format: "latex", simplify: $("cf-simplify").checked },
+    });
+    if (seq !== cfSeq) return;
+    const count = renderClosedForm($("cf-output"), body, { factors, jacobian });
+    status.textContent = `${model.id}: ${body.root} to ${body.tip}, ${body.joint_variables.length} joint variable(s).`;
+    state.closedForm = { tip, ok: true, items: count, katex: $("cf-output").querySelectorAll(".katex").length,
+      status: status.textContent };
+  } catch (err) {
+    if (seq !== cfSeq) return;
+    $("cf-output").replaceChildren();
+    status.className = "warn";
+    status.textContent = closedFormProblem(err);
+    state.closedForm = { tip, ok: false, items: 0, katex: 0, status: status.textContent, httpStatus: err.status || null };
+  } finally {
+    if (seq === cfSeq) $("cf-derive").disabled = false;
+    state.cfResponses += 1;
+  }
+}
+
+$("cf-derive").addEventListener("click", deriveClosedForm);
 
 // ---------------------------------------------------------------------------- DH editor
 const DH_EXAMPLE = [   // a planar 2R arm with a prismatic wrist lift (standard, degrees)
@@ -1265,6 +1394,40 @@ const DH_EXAMPLE = [   // a planar 2R arm with a prismatic wrist lift (standard,
   { type: "prismatic", a: 0, alpha: 0, d: 0.1, theta: 0, lower: 0, upper: 0.2, name: "" },
 ];
 const DH_FIELDS = ["a", "alpha", "d", "theta", "lower", "upper"];
+const DH_SYMBOLIC_FIELDS = ["a", "alpha", "d", "theta"];   // cells that may hold symbols (POST /symbolic/dh)
+
+/** The cells of a table read with symbols that are not numbers. */
+function dhSymbolicCells(table) {
+  return table.joints.flatMap((j) => DH_SYMBOLIC_FIELDS.filter((f) => typeof j[f] === "string").map((f) => j[f]));
+}
+
+/** POST /symbolic/dh of the editor's table (symbols allowed) and its closed form under the editor. */
+async function showDhClosedForm(table) {
+  const out = $("dh-closed-form");
+  out.hidden = false;
+  out.replaceChildren();
+  const status = document.createElement("p");
+  status.id = "dh-closed-status";
+  status.textContent = "Deriving the table's closed form...";
+  out.appendChild(status);
+  state.cfRequests += 1;
+  try {
+    const body = await api("/symbolic/dh", { method: "POST", body: { table, what: ["transforms"], format: "latex" } });
+    const holder = document.createElement("div");
+    renderClosedForm(holder, body, { factors: true });
+    status.textContent = `Closed form of the table (${body.joint_variables.length} joint variable(s)` +
+      `${body.parameters.length ? `; parameters ${body.parameters.join(", ")}` : ""}).`;
+    out.appendChild(holder);
+    state.dhClosed = { ok: true, parameters: body.parameters, katex: out.querySelectorAll(".katex").length,
+      T: body.T, status: status.textContent };
+  } catch (err) {
+    status.className = "warn";
+    status.textContent = closedFormProblem(err);
+    state.dhClosed = { ok: false, parameters: [], katex: 0, T: null, status: status.textContent };
+  } finally {
+    state.cfResponses += 1;
+  }
+}
 
 function addDhRow(row = { type: "revolute", a: 0, alpha: 0, d: 0, theta: 0, lower: "", upper: "", name: "" }) {
   const tr = document.createElement("tr");
@@ -1285,15 +1448,24 @@ function numberDhRows() {
   [...$("dh-table").tBodies[0].rows].forEach((tr, i) => { tr.querySelector(".idx").textContent = String(i + 1); });
 }
 
-/** The DH table as POST /models/dh takes it; throws naming the row and column of bad input. */
-function readDhTable() {
+/** The DH table as POST /models/dh takes it; throws naming the row and column of bad input.
+ * With `symbols`, a, alpha, d and theta may also be symbols or expressions (`a1`, `-d4`, `pi/2`),
+ * kept as strings for POST /symbolic/dh (which reads and checks them). */
+function readDhTable({ symbols = false } = {}) {
   const joints = [...$("dh-table").tBodies[0].rows].map((tr, i) => {
     const get = (f) => tr.querySelector(`[data-field="${f}"]`).value.trim();
     const num = (f, optional = false) => {
       const text = get(f);
       if (text === "" && optional) return null;
       const v = Number(text);
-      if (text === "" || !Number.isFinite(v)) throw new Error(`DH row ${i + 1}, ${f}: "${text}" is not a number`);
+      // a symbol or expression names something (a1, pi/2); "1.2.3" is a mistyped number
+      if (text !== "" && !Number.isFinite(v) && symbols && DH_SYMBOLIC_FIELDS.includes(f) && /[A-Za-z_]/.test(text)) {
+        return text;
+      }
+      if (text === "" || !Number.isFinite(v)) {
+        throw new Error(`DH row ${i + 1}, ${f}: "${text}" is not a number${symbols && DH_SYMBOLIC_FIELDS.includes(f)
+          ? " (nor a symbol or expression such as a1 or pi/2)" : ""}`);
+      }
       return v;
     };
     const joint = { type: get("type"), a: num("a"), alpha: num("alpha"), d: num("d"), theta: num("theta") };
@@ -1348,9 +1520,16 @@ $("dh-build").addEventListener("click", async () => {
   result.textContent = "";
   let table;
   try {
-    table = readDhTable();
+    table = readDhTable({ symbols: true });
   } catch (err) {
     showError(err);
+    return;
+  }
+  const symbolic = dhSymbolicCells(table);
+  if (symbolic.length) {   // a table with symbols has a closed form, not a model
+    result.textContent = `The table has symbols (${[...new Set(symbolic)].join(", ")}): its closed form is shown ` +
+      "below; give numbers in every cell to build a model.";
+    await showDhClosedForm(table);
     return;
   }
   try {
@@ -1370,6 +1549,16 @@ $("dh-build").addEventListener("click", async () => {
   }
 });
 $("dh-download").addEventListener("click", () => downloadUrdf($("dh-download").dataset.id));
+$("dh-closed").addEventListener("click", async () => {
+  let table;
+  try {
+    table = readDhTable({ symbols: true });
+  } catch (err) {
+    showError(err);
+    return;
+  }
+  await showDhClosedForm(table);
+});
 
 // ---------------------------------------------------------------------------- start
 async function start() {
