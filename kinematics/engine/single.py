@@ -173,9 +173,10 @@ def _compiled(model):
     """A :class:`~kinematics.engine.poe.PoEModel` as it is, or the compiled form of a RobotModel."""
     if hasattr(model, "kernel"):
         return model
-    from .poe import compile_model
+    from .poe import require_one_dof
 
-    return compile_model(model)
+    return require_one_dof(getattr(model, "model", model), "single-configuration entries (fk_function, "
+                           "jacobian_function)")
 
 
 def _per_thread(ftab: np.ndarray):

@@ -31,7 +31,7 @@ from ..model.robot import RobotModel
 from ..spatial.rotations import matrix_to_quaternion
 from ..spatial.transforms import inverse_transform
 from ..tolerances import MAX_ABS_JOINT_VALUE
-from .trajectory import CHUNK_ROWS, AtomicOutput, TrajectoryFileError, drop_file, part_file
+from .trajectory import CHUNK_ROWS, AtomicOutput, TrajectoryFileError, drop_file, part_file, require_joint_columns
 
 #: the ROS message type of joint states (rosbags' name, ROS 1 bags included)
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -64,8 +64,7 @@ class JointStateLog:
                  chunk_rows: int = CHUNK_ROWS, name: str | None = None):
         if chunk_rows < 1:
             raise ValueError("chunk_rows must be positive")
-        if model.dof == 0:
-            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        require_joint_columns(model)
         AnyReader, Stores, get_typestore = _rosbags()
         self.model = model
         self.name = name or str(path)

@@ -53,6 +53,7 @@ from .trajectory import (
     fk_table,
     jacobian_columns,
     part_file,
+    require_joint_columns,
 )
 
 #: default name of the time column (read when present, carried to the output)
@@ -213,8 +214,7 @@ class ParquetJointRows(_ParquetRows):
 
     def __init__(self, source, model: RobotModel, chunk_rows: int = CHUNK_ROWS, time_column: str | None = None,
                  name: str | None = None):
-        if model.dof == 0:
-            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        require_joint_columns(model)
         self.model = model
         super().__init__(source, chunk_rows, time_column, name)
 

@@ -381,8 +381,7 @@ class JointRows(_RowFile):
     max_abs = MAX_ABS_JOINT_VALUE
 
     def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
-        if model.dof == 0:
-            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        require_joint_columns(model)
         self.model = model
         self.names = list(model.joint_names)
         self._name_set = set(self.names)
@@ -454,8 +453,7 @@ class StateRows(_RowFile):
     max_abs = MAX_ABS_JOINT_VALUE
 
     def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
-        if model.dof == 0:
-            raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+        require_joint_columns(model)
         self.model = model
         self.dof = model.dof
         self.joints = list(model.joint_names)
@@ -723,6 +721,18 @@ def fk_table(T: np.ndarray) -> np.ndarray:
     out[..., :3] = T[..., :3, 3]
     out[..., 3:] = matrix_to_quaternion(T[..., :3, :3])
     return out.reshape(n, 7 * L)
+
+
+def require_joint_columns(model: RobotModel) -> None:
+    """Refuse, naming why, a model whose q is not one column per joint: no moving joint, or a
+    floating or planar joint (several values per joint: the library and the service take those)."""
+    if model.dof == 0:
+        raise TrajectoryFileError(f"model {model.name!r} has no moving joint: there is no joint value to read")
+    if model.multi_dof:
+        kinds = sorted({j.type for j in model.joints if j.type in ("floating", "planar")})
+        raise TrajectoryFileError(f"model {model.name!r} has {' and '.join(kinds)} joints (several values each): "
+                                  "trajectory, Parquet and log files take one column per joint; use the Python "
+                                  "library or the service for this model")
 
 
 class AtomicOutput:

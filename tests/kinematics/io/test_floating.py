@@ -41,3 +41,20 @@ def test_names_already_taken_get_a_suffix():
             '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
     fb = with_floating_base(parse_urdf(text))
     assert fb.joint_names == ("root_joint_2", "root_joint") and fb.root == "universe_2"
+
+
+def test_file_pipelines_refuse_several_values_per_joint_naming_why(catalogue, tmp_path):
+    """Trajectory, Parquet and log readers take one column per joint: a floating base is refused
+    with a message, never read as if q had one value per joint."""
+    import pytest
+
+    from kinematics.engine.single import fk_function
+    from kinematics.errors import UnsupportedJointError
+    from kinematics.io.trajectory import JointRows, TrajectoryFileError
+
+    fb = with_floating_base(catalogue.get("ur5"))
+    (tmp_path / "q.csv").write_text("0,0,0,0,0,0\n")
+    with pytest.raises(TrajectoryFileError, match="floating joints .*one column per joint"):
+        JointRows(str(tmp_path / "q.csv"), fb, "csv", "q.csv")
+    with pytest.raises(UnsupportedJointError, match="single-configuration entries"):
+        fk_function(fb, "tool0")
