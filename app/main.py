@@ -114,8 +114,10 @@ def _document_security(app: FastAPI, schema: dict) -> None:
             if ("write" if (method, path) in writes else "read") in needs:
                 continue
             operation.pop("security", None)
-            for status in ("401", "403"):
-                operation.get("responses", {}).pop(status, None)
+            responses = operation.get("responses", {})
+            responses.pop("401", None)
+            if str(responses.get("403", {}).get("description", "")).startswith("API key"):
+                responses.pop("403", None)  # a 403 of another cause (a read-only model) stays
     if not needs:
         schema.get("components", {}).pop("securitySchemes", None)
 

@@ -24,15 +24,19 @@ def joint_info(joint: Joint) -> dict:
     }
 
 
-def model_info(rec: ModelRecord) -> dict:
+def model_info(rec: ModelRecord, note: str | None = None) -> dict:
+    """The model info; ``note`` says what a registration did when it did not create the model."""
     m = rec.model
-    return {
+    info = {
         "id": rec.id, "name": rec.name, "source": rec.source, "dof": m.dof, "root": m.root,
         "joint_names": list(m.joint_names), "links": list(m.links), "leaf_links": list(m.leaf_links),
         "joints": [joint_info(j) for j in m.joints], "warnings": list(m.warnings),
         "urdf_sha256": m.content_hash, "created": rec.created, "dh_table": rec.dh_table,
         "description": rec.description, "format": _format(rec), "upload": rec.upload,
     }
+    if note is not None:
+        info["note"] = note
+    return info
 
 
 def _format(rec: ModelRecord) -> str:

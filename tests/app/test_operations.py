@@ -202,7 +202,8 @@ def _ops(doc):
 def test_openapi_declares_security_as_configured(make_client, settings, secured):
     doc = make_client(**settings).get("/openapi.json").json()
     ops = _ops(doc)
-    write = ops[("delete", "/models/{model_id}")]
+    write = ops[("post", "/models")]
+    assert bool(ops[("delete", "/models/{model_id}")].get("security")) == ("write" in secured)
     read = ops[("post", "/models/{model_id}/fk")]
     assert bool(write.get("security")) == ("write" in secured)
     assert bool(read.get("security")) == ("read" in secured)
@@ -213,10 +214,65 @@ def test_openapi_declares_security_as_configured(make_client, settings, secured)
     assert not ops[("get", "/health")].get("security") and not ops[("get", "/metrics")].get("security")
 
 
-def test_openapi_documents_405_on_bundled_delete_and_422_on_dh_of_a_tree(api_client):
+def test_openapi_documents_403_on_bundled_delete_and_422_on_dh_of_a_tree(api_client):
     ops = _ops(api_client.get("/openapi.json").json())
-    assert "405" in ops[("delete", "/models/{model_id}")]["responses"]
+    # without a key, the 403 of a read-only model stays documented (the key's 401 does not)
+    assert "403" in ops[("delete", "/models/{model_id}")]["responses"]
+    assert "401" not in ops[("delete", "/models/{model_id}")]["responses"]
     assert "422" in ops[("get", "/models/{model_id}/dh")]["responses"]
-    assert api_client.delete("/models/ur5").status_code == 405
+    assert api_client.delete("/models/ur5").status_code == 403
     tree = next(m["id"] for m in api_client.get("/models").json() if m["id"] in ("talos", "romeo", "icub", "baxter"))
     assert api_client.get(f"/models/{tree}/dh").status_code == 422
+
+
+# ---------------------------------------------------------------- what each answer says
+def test_links_given_as_a_string_says_what_to_send(api_client):
+    r = api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "links": "tool0"})
+    assert r.status_code == 422 and r.headers["content-type"] == PROBLEM
+    body = r.json()
+    assert body["field"] == "links"
+    assert body["detail"] == 'links must be a list of link names or "all"; got the string "tool0" -- did you mean ["tool0"]?'
+    r = api_client.post("/models/ur5/velocity", json={"q": [0.0] * 6, "qdot": [0.0] * 6, "links": "tool0"})
+    assert r.status_code == 422 and 'did you mean ["tool0"]' in r.json()["detail"]
+    # "all" and lists are still fine
+    assert api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "links": "all"}).status_code == 200
+    assert api_client.post("/models/ur5/fk", json={"q": [0.0] * 6, "links": ["tool0"]}).status_code == 200
+
+
+def test_reupload_with_a_new_name_renames_and_says_so(make_client):
+    from app.schemas import TWO_LINK_URDF
+
+    a = make_client()
+    r1 = a.post("/models?name=first", content=TWO_LINK_URDF, headers={"content-type": "application/xml"})
+    assert r1.status_code == 201 and r1.json()["name"] == "first" and r1.json()["note"] is None
+    mid = r1.json()["id"]
+    b = make_client()  # a second replica on the same data directory caches the model under its old name
+    assert b.get(f"/models/{mid}").json()["name"] == "first"
+    r2 = a.post("/models?name=second", content=TWO_LINK_URDF, headers={"content-type": "application/xml"})
+    assert r2.status_code == 200 and r2.json()["id"] == mid and r2.json()["name"] == "second"
+    assert "renamed from 'first' to 'second'" in r2.json()["note"]
+    assert b.get(f"/models/{mid}").json()["name"] == "second"  # the rename reaches every replica
+    assert {m["id"]: m["name"] for m in b.get("/models").json()}[mid] == "second"
+    # the same content and name, or no name: nothing changes, and the note says that
+    r3 = a.post("/models", content=TWO_LINK_URDF, headers={"content-type": "application/xml"})
+    assert r3.status_code == 200 and r3.json()["name"] == "second" and "nothing changed" in r3.json()["note"]
+
+
+def test_405_allow_lists_every_method_of_the_path(api_client):
+    r = api_client.request("PATCH", "/models/ur5")
+    assert r.status_code == 405 and r.headers["allow"] == "GET, DELETE" and r.json()["request_id"]
+    assert "allowed: GET, DELETE" in r.json()["detail"]
+
+
+def test_deleting_a_bundled_model_is_403_read_only(make_client):
+    for client in (make_client(), make_client(api_key="k")):
+        headers = {"X-API-Key": "k"}
+        r = client.delete("/models/ur5", headers=headers)
+        assert r.status_code == 403 and r.json()["type"] == "urn:kinematics:problem:read-only-model"
+    assert make_client(api_key="k").delete("/models/ur5").status_code == 401  # the key is asked for first
+
+
+def test_405_allow_of_a_static_path_beside_a_template(api_client):
+    # /models/dh is its own resource (POST), not also GET/DELETE /models/{model_id}
+    r = api_client.options("/models/dh")
+    assert r.status_code == 405 and r.headers["allow"] == "POST"
