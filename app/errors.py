@@ -296,7 +296,9 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(Exception)
     async def _bug(request: Request, exc: Exception):
         request_id = REQUEST_ID.get()
-        log.exception("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id)
+        log.exception("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id,
+                      extra={"method": request.method, "path": request.url.path, "status": 500,
+                             "problem": PROBLEM_TYPE_PREFIX + "internal-error"})
         # sent by Starlette's outermost middleware, past RequestContext: the header is added here
         return problem(500, "Internal server error", "an unexpected error occurred; it has been logged", "internal-error",
                        headers={"X-Request-ID": request_id} if request_id else None)

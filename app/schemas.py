@@ -215,10 +215,10 @@ class Screws(BaseModel):
 
 # ---------------------------------------------------------------------- kinematics
 class Quaternion(BaseModel):
-    w: float
-    x: float
-    y: float
-    z: float
+    w: Number
+    x: Number
+    y: Number
+    z: Number
 
 
 class Pose(BaseModel):

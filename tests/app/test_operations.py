@@ -276,3 +276,109 @@ def test_405_allow_of_a_static_path_beside_a_template(api_client):
     # /models/dh is its own resource (POST), not also GET/DELETE /models/{model_id}
     r = api_client.options("/models/dh")
     assert r.status_code == 405 and r.headers["allow"] == "POST"
+
+
+# ---------------------------------------------------------------- a live server: 2 workers, JSON logs
+def test_live_two_workers_metrics_and_json_logs(tmp_path):
+    """uvicorn with 2 workers, PROMETHEUS_MULTIPROC_DIR and KIN_LOG_FORMAT=json: /metrics adds up
+    both workers (requests, models compiled and cached, IK, configurations) and every access and
+    error record is one JSON object with the request id."""
+    import json
+
+    import httpx
+
+    from tests.live import LiveServer
+
+    prom, data = tmp_path / "prom", tmp_path / "data"
+    prom.mkdir()
+    data.mkdir()
+    env = {"PROMETHEUS_MULTIPROC_DIR": str(prom), "KIN_LOG_FORMAT": "json"}
+    with LiveServer(data, tmp_path / "uvicorn.log", workers=2, env=env) as live, \
+            httpx.Client(base_url=live.url, timeout=60) as c:
+        n = 12  # new connections: the kernel spreads them over both workers
+        for i in range(n):
+            r = httpx.post(live.url + "/models/ur5/fk", json={"q": [0.1 * i] * 6}, headers={"X-Request-ID": f"fk-{i}"})
+            assert r.status_code == 200
+        assert c.post("/models/ur5/ik", json={"link": "tool0", "target": {"xyz": [0.4, 0.1, 0.3], "rpy": [3.1, 0, 0]},
+                                              "restarts": 2}).status_code == 200
+        assert c.get("/models/ur6", headers={"X-Request-ID": "nf-1"}).status_code == 404
+        text = c.get("/metrics").text
+        log = live.log()
+    fk = dict(method="POST", route="/models/{model_id}/fk", status=200)
+    assert sample(text, "kin_http_requests_total", **fk) == n
+    assert sample(text, "kin_http_request_duration_seconds_count", **fk) == n
+    assert sample(text, "kin_http_requests_total", method="GET", route="/models/{model_id}", status=404) == 1
+    assert sample(text, "kin_configurations_total", operation="fk") == n
+    assert sample(text, "kin_ik_targets_total", outcome="success") + sample(text, "kin_ik_targets_total",
+                                                                            outcome="failure") == 1
+    assert sample(text, "kin_ik_iterations_count") == 1
+    # each worker compiled its warm-up model and the UR5 (2 or 4: one worker may have served every FK)
+    assert sample(text, "kin_models_compiled_total") >= 3
+    assert sample(text, "kin_models_cached") >= 1
+    assert len(list(prom.glob("*.db"))) >= 2  # both workers wrote their values
+    records = [json.loads(line) for line in log.splitlines() if line.startswith("{")]
+    access = [r for r in records if r["logger"] == "app.access"]
+    assert {r["pid"] for r in access} <= {r["pid"] for r in records}
+    by_id = {r["request_id"]: r for r in access}
+    one = by_id["fk-3"]
+    assert one["method"] == "POST" and one["path"] == "/models/ur5/fk" and one["route"] == "/models/{model_id}/fk"
+    assert one["status"] == 200 and one["duration_ms"] > 0 and one["level"] == "info" and one["time"].endswith("+00:00")
+    nf = by_id["nf-1"]
+    assert nf["status"] == 404 and nf["problem"] == "urn:kinematics:problem:unknown-model" and "ur5" in nf["detail"]
+    assert sum(r["path"] == "/models/ur5/fk" for r in access) == n
+    assert '"GET /metrics HTTP/1.1"' not in log  # uvicorn's text access log is replaced
+
+
+def test_json_error_log_has_the_exception_and_request_id(api_data_dir, capsys):
+    import json
+
+    from fastapi.testclient import TestClient
+
+    from app import logs
+    from app.main import create_app
+    from app.settings import Settings
+
+    try:
+        app = create_app(Settings(data_dir=api_data_dir, log_format="json"))
+        with TestClient(app, raise_server_exceptions=False) as c:
+            def broken(model_id):
+                raise RuntimeError("simulated bug")
+
+            app.state.registry.get = broken
+            assert c.get("/models/ur5", headers={"X-Request-ID": "trace-json"}).status_code == 500
+            assert c.post("/models/ur5/fk", json={"q": "x"}, headers={"X-Request-ID": "bad-q"}).status_code == 422
+        err = capsys.readouterr().err
+    finally:
+        logs.reset()
+    records = [json.loads(line) for line in err.splitlines() if line.startswith("{")]
+    bug = next(r for r in records if r["logger"] == "app.errors")
+    assert bug["level"] == "error" and bug["request_id"] == "trace-json" and bug["status"] == 500
+    assert bug["exception"] == "RuntimeError: simulated bug" and "Traceback" in bug["traceback"]
+    assert bug["problem"] == "urn:kinematics:problem:internal-error" and bug["path"] == "/models/ur5"
+    access = {r["request_id"]: r for r in records if r["logger"] == "app.access"}
+    assert access["trace-json"]["status"] == 500 and access["trace-json"]["level"] == "error"
+    assert access["bad-q"]["status"] == 422 and access["bad-q"]["problem"] == "urn:kinematics:problem:validation-error"
+    assert access["bad-q"]["detail"].startswith("q must be")
+
+
+def test_log_format_setting(monkeypatch):
+    from app.settings import Settings
+
+    assert Settings().log_format == "text"
+    monkeypatch.setenv("KIN_LOG_FORMAT", "json")
+    assert Settings().log_format == "json"
+    monkeypatch.setenv("KIN_LOG_FORMAT", "xml")
+    with pytest.raises(Exception):
+        Settings()
+
+
+def test_metrics_models_compiled_and_cached(api_client):
+    from app.schemas import TWO_LINK_URDF
+
+    before = api_client.get("/metrics").text
+    mid = api_client.post("/models", content=TWO_LINK_URDF, headers={"content-type": "application/xml"}).json()["id"]
+    for _ in range(3):  # compiled once, then served from the compiled form
+        assert api_client.post(f"/models/{mid}/fk", json={"q": [0.1, 0.2]}).status_code == 200
+    text = api_client.get("/metrics").text
+    assert sample(text, "kin_models_compiled_total") - sample(before, "kin_models_compiled_total") == 1
+    assert sample(text, "kin_models_cached") >= 1
