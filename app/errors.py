@@ -54,6 +54,8 @@ PROBLEM_TYPE_PREFIX = "urn:kinematics:problem:"
 
 #: the id of the request being answered (set by :class:`app.middleware.RequestContext`)
 REQUEST_ID: contextvars.ContextVar[str | None] = contextvars.ContextVar("request_id", default=None)
+#: the problem type (and detail) of the answer being sent, for the access log (reset per request)
+PROBLEM: contextvars.ContextVar[tuple[str, str] | None] = contextvars.ContextVar("problem", default=None)
 
 
 class RequestIdFilter(logging.Filter):
@@ -125,6 +127,7 @@ def problem(status: int, title: str, detail: str, slug: str, headers: dict[str, 
     request_id = REQUEST_ID.get()
     if request_id is not None:
         body["request_id"] = request_id
+    PROBLEM.set((body["type"], detail))
     return ProblemResponse(body, status_code=status, headers=headers)
 
 
@@ -162,6 +165,40 @@ def _branch(loc: tuple) -> str | None:
     return next((str(p) for p in loc if "[" in str(p)), None)
 
 
+#: list-of-names fields that also take the string "all" (a bare name is the usual mistake)
+_NAME_LIST_FIELDS = ("links",)
+
+
+def _json_str(s: str) -> str:
+    import json
+
+    return json.dumps(s[:200])
+
+
+def _names_given_as_string(errors: list[dict]) -> tuple[str, str] | None:
+    """(field, the string) when a names-or-"all" field got a string other than "all"."""
+    for e in errors:
+        loc = tuple(e.get("loc", ()))
+        field = _field(loc)
+        if field in _NAME_LIST_FIELDS and isinstance(e.get("input"), str):
+            return field, e["input"]
+    return None
+
+
+#: what a query parameter's pattern means, said instead of the regular expression
+_PATTERN_HINTS = {
+    "arg": "is not name:value (a xacro argument: a name, then ':' or '=', then the value)",
+    "point": "is not three comma-separated numbers x,y,z (metres, link frame)",
+}
+
+
+def _message(error: dict, field: str) -> str:
+    hint = _PATTERN_HINTS.get(field.split(".", 1)[0])
+    if hint is not None and error.get("type") == "string_pattern_mismatch":
+        return f"{str(error.get('input'))[:100]!r} {hint}"
+    return error.get("msg", "")
+
+
 def validation_problem(errors: list[dict]) -> ProblemResponse:
     """422 for pydantic errors: ``field`` names the first offending field, ``errors`` lists the rest.
 
@@ -176,11 +213,17 @@ def validation_problem(errors: list[dict]) -> ProblemResponse:
         loc = tuple(e.get("loc", ()))
         if branch is not None and _branch(loc) not in (branch, None):
             continue
-        item = {"field": _field(loc), "message": e.get("msg", ""), "type": e.get("type", "")}
+        item = {"field": _field(loc), "message": _message(e, _field(loc)), "type": e.get("type", "")}
         if (item["field"], item["message"]) not in seen:
             seen.add((item["field"], item["message"]))
             cleaned.append(item)
     first = cleaned[0]
+    names = _names_given_as_string(errors)
+    if names is not None:
+        field, given = names
+        detail = (f'{field} must be a list of link names or "all"; got the string {_json_str(given)}'
+                  f' -- did you mean [{_json_str(given)}]?')
+        return problem(422, "Invalid request", detail, "validation-error", field=field, errors=cleaned[:20])
     if first["field"] == "q" or first["field"].startswith("q."):
         detail = ("q must be a list of numbers (one configuration), a {joint_name: number} map, "
                   f"or a list of those (a batch): {first['field']}: {first['message']}")
@@ -188,6 +231,34 @@ def validation_problem(errors: list[dict]) -> ProblemResponse:
         detail = f"{first['field'] or 'request'}: {first['message']}"
     return problem(422, "Invalid request", detail, "validation-error", field=first["field"] or None,
                    errors=cleaned[:20])
+
+
+def _flat_routes(app) -> list:
+    """Every route of ``app``, the included routers' too (FastAPI >= 0.16x nests them)."""
+    from fastapi import routing
+
+    iter_contexts = getattr(routing, "iter_route_contexts", None)
+    if iter_contexts is None:
+        return list(app.router.routes)
+    return [getattr(c, "original_route", None) or c.route for c in iter_contexts(app.router.routes)]
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """The methods of the request's path, for the ``Allow`` header of a 405: those of every route
+    of its most specific template (Starlette's own 405 names only the first route that matched)."""
+    from starlette.routing import get_route_path
+
+    path = get_route_path(request.scope)
+    by_params: dict[int, set[str]] = {}
+    for route in _flat_routes(request.app):
+        regex, route_methods = getattr(route, "path_regex", None), getattr(route, "methods", None)
+        if regex is not None and route_methods and regex.match(path):
+            by_params.setdefault(str(getattr(route, "path", "")).count("{"), set()).update(route_methods)
+    # the most specific templates name the resource: /models/dh is POST /models/dh, not also the
+    # GET and DELETE of /models/{model_id} (which would answer "unknown model 'dh'")
+    methods = by_params[min(by_params)] if by_params else set()
+    order = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
+    return sorted(methods, key=lambda m: (order.index(m) if m in order else len(order), m))
 
 
 def install_error_handlers(app: FastAPI) -> None:
@@ -216,14 +287,20 @@ def install_error_handlers(app: FastAPI) -> None:
         detail = exc.detail if isinstance(exc.detail, str) else title
         if status == 404 and detail == "Not Found":
             detail = f"no route {request.url.path!r}"
-        elif status == 405 and detail == "Method Not Allowed":
-            detail = f"method {request.method} is not allowed on {request.url.path!r}"
-        return problem(status, title, detail, title.lower().replace(" ", "-"), headers=getattr(exc, "headers", None))
+        headers = getattr(exc, "headers", None)
+        if status == 405:
+            allowed = allowed_methods(request)
+            headers = {**(headers or {}), "Allow": ", ".join(allowed)}
+            if detail == "Method Not Allowed":
+                detail = f"method {request.method} is not allowed on {request.url.path!r}; allowed: {', '.join(allowed)}"
+        return problem(status, title, detail, title.lower().replace(" ", "-"), headers=headers)
 
     @app.exception_handler(Exception)
     async def _bug(request: Request, exc: Exception):
         request_id = REQUEST_ID.get()
-        log.exception("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id)
+        log.exception("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id,
+                      extra={"method": request.method, "path": request.url.path, "status": 500,
+                             "problem": PROBLEM_TYPE_PREFIX + "internal-error"})
         # sent by Starlette's outermost middleware, past RequestContext: the header is added here
         return problem(500, "Internal server error", "an unexpected error occurred; it has been logged", "internal-error",
                        headers={"X-Request-ID": request_id} if request_id else None)

@@ -22,7 +22,7 @@ from kinematics import api
 from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
-from .errors import RequestIdFilter, install_error_handlers
+from .errors import install_error_handlers
 from .middleware import BodySizeLimit, RequestContext
 from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
@@ -114,8 +114,10 @@ def _document_security(app: FastAPI, schema: dict) -> None:
             if ("write" if (method, path) in writes else "read") in needs:
                 continue
             operation.pop("security", None)
-            for status in ("401", "403"):
-                operation.get("responses", {}).pop(status, None)
+            responses = operation.get("responses", {})
+            responses.pop("401", None)
+            if str(responses.get("403", {}).get("description", "")).startswith("API key"):
+                responses.pop("403", None)  # a 403 of another cause (a read-only model) stays
     if not needs:
         schema.get("components", {}).pop("securitySchemes", None)
 
@@ -140,15 +142,12 @@ def _custom_openapi(app: FastAPI):
     return openapi
 
 
-def _configure_logging(level: str) -> None:
-    """Level of the ``app`` loggers; a stderr handler when nothing else (uvicorn, pytest) handles them."""
-    logger = logging.getLogger("app")
-    logger.setLevel(level.upper())
-    if not logger.handlers and not logging.getLogger().handlers:
-        handler = logging.StreamHandler()
-        handler.addFilter(RequestIdFilter())
-        handler.setFormatter(logging.Formatter("%(levelname)s:     %(name)s: [%(request_id)s] %(message)s"))
-        logger.addHandler(handler)
+def _configure_logging(level: str, fmt: str = "text") -> None:
+    """Level and format (text, json: :mod:`app.logs`) of the ``app`` loggers; in text mode a stderr
+    handler when nothing else (uvicorn, pytest) handles them."""
+    from .logs import configure
+
+    configure(level, fmt)
 
 
 #: response headers a browser page on another origin may read (the .npy answers' metadata)
@@ -160,7 +159,7 @@ EXPOSED_HEADERS = ["Location", "X-Request-ID", "X-Links", "X-Joint-Names", "X-Li
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service. ``settings`` default to the environment (``KIN_*``)."""
     settings = settings if settings is not None else Settings()
-    _configure_logging(settings.log_level)
+    _configure_logging(settings.log_level, settings.log_format)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -185,7 +184,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins, allow_methods=["*"],
                            allow_headers=["*"], expose_headers=EXPOSED_HEADERS)
     app.add_middleware(BodySizeLimit, limit=settings.max_request_bytes)
-    app.add_middleware(RequestContext)  # added last: outermost, so every answer carries the id
+    # added last: outermost, so every answer carries the id (and, in JSON mode, is logged)
+    app.add_middleware(RequestContext, access_log=settings.log_format == "json")
     return app
 
 

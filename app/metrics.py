@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 
-from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Counter, Histogram, generate_latest
+from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Counter, Gauge, Histogram, generate_latest
 from prometheus_client import REGISTRY as DEFAULT_REGISTRY
 
 LATENCY_BUCKETS = (0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0, 60.0)
@@ -25,6 +25,25 @@ IK_TARGETS = Counter("kin_ik_targets", "IK targets solved, by outcome (success: 
                      ("outcome",))
 IK_ITERATIONS = Histogram("kin_ik_iterations", "iterations spent on each IK target", buckets=ITERATION_BUCKETS)
 CONFIGURATIONS = Counter("kin_configurations", "joint configurations processed, by operation", ("operation",))
+MODELS_COMPILED = Counter("kin_models_compiled", "models compiled to their product-of-exponentials form (the "
+                          "kernels' input; once per model and process, the start-up warm-up's included)")
+MODELS_CACHED = Gauge("kin_models_cached", "compiled models held in memory (summed over live workers)",
+                      multiprocess_mode="livesum")
+
+_compiled_seen = 0
+
+
+def record_models() -> None:
+    """Bring the model counts up to date with the library's (:func:`kinematics.api.compiled_models`;
+    called after each request and before each exposition: the app observes, the library compiles)."""
+    global _compiled_seen
+    from kinematics import api
+
+    compiled, cached = api.compiled_models()
+    if compiled > _compiled_seen:
+        MODELS_COMPILED.inc(compiled - _compiled_seen)
+        _compiled_seen = compiled
+    MODELS_CACHED.set(cached)
 
 
 def record_ik(success, iterations) -> None:
@@ -43,6 +62,7 @@ def record_configurations(operation: str, count: int) -> None:
 
 def exposition() -> tuple[bytes, str]:
     """The text exposition of every metric (aggregated over workers in multiprocess mode)."""
+    record_models()
     if os.environ.get("PROMETHEUS_MULTIPROC_DIR"):
         from prometheus_client import multiprocess
 

@@ -3,12 +3,15 @@ limit, enforced before any handler parses a body."""
 
 from __future__ import annotations
 
+import logging
 import re
 import time
 import uuid
 
 from . import metrics
-from .errors import REQUEST_ID, ProblemError, problem
+from .errors import PROBLEM, PROBLEM_TYPE_PREFIX, REQUEST_ID, ProblemError, problem
+
+access_log = logging.getLogger("app.access")
 
 #: a client's X-Request-ID is kept when it is this safe (else a new one is generated)
 _REQUEST_ID_OK = re.compile(rb"[A-Za-z0-9._:-]{1,128}")
@@ -19,10 +22,13 @@ class RequestContext:
     1-128 of ``A-Za-z0-9._:-``, else a uuid4 hex), echoes it in the answer's headers, makes it
     available to problem details and logs (:data:`app.errors.REQUEST_ID`), and counts the request
     and its latency per route *template* (``/models/{model_id}/fk``, not the raw path; requests
-    that match no route are labelled ``unmatched``), method and status."""
+    that match no route are labelled ``unmatched``), method and status. With ``access_log`` it
+    also logs each answer on ``app.access`` (one record: method, path, route, status,
+    duration_ms, the problem type of an error; ``KIN_LOG_FORMAT=json`` turns it on)."""
 
-    def __init__(self, app):
+    def __init__(self, app, access_log: bool = False):
         self.app = app
+        self.access_log = access_log
 
     async def __call__(self, scope, receive, send):
         if scope["type"] != "http":
@@ -31,6 +37,7 @@ class RequestContext:
         request_id = given.decode() if given is not None and _REQUEST_ID_OK.fullmatch(given) else uuid.uuid4().hex
         scope["request_id"] = request_id
         REQUEST_ID.set(request_id)  # each request runs in its own context (task); not reset, so the 500 handler sees it
+        PROBLEM.set(None)
         header = (b"x-request-id", request_id.encode())
         status = 500
         start = time.perf_counter()
@@ -45,12 +52,30 @@ class RequestContext:
 
         try:
             await self.app(scope, receive, send_with_id)
+        except BaseException as exc:  # answered 500 by the outermost middleware (the error handler logs it)
+            PROBLEM.set((PROBLEM_TYPE_PREFIX + "internal-error", type(exc).__name__))
+            raise
         finally:
+            elapsed = time.perf_counter() - start
             route = scope.get("route")
             template = getattr(route, "path", None) or "unmatched"
             labels = (scope.get("method", ""), template, str(status))
             metrics.REQUESTS.labels(*labels).inc()
-            metrics.LATENCY.labels(*labels).observe(time.perf_counter() - start)
+            metrics.LATENCY.labels(*labels).observe(elapsed)
+            metrics.record_models()
+            if self.access_log:
+                self._log(scope, template, status, elapsed)
+
+    @staticmethod
+    def _log(scope, template: str, status: int, elapsed: float) -> None:
+        problem_ = PROBLEM.get()
+        extra = {"method": scope.get("method", ""), "path": scope.get("path", ""), "route": template,
+                 "status": status, "duration_ms": round(elapsed * 1000.0, 3),
+                 "client": (scope.get("client") or ("-",))[0]}
+        if problem_ is not None:
+            extra["problem"], extra["detail"] = problem_[0], problem_[1][:500]
+        level = logging.ERROR if status >= 500 else logging.INFO
+        access_log.log(level, "%s %s %d", extra["method"], extra["path"], status, extra=extra)
 
 
 class BodySizeLimit:

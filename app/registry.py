@@ -122,7 +122,9 @@ class ModelRecord:
     model: RobotModel
     created: str | None = None
     dh_table: dict[str, Any] | None = None
-    file_key: tuple | None = field(default=None, repr=False)  # (inode, mtime_ns, size) of the content file
+    #: (inode, mtime_ns, size) of the content file, then of the sidecar (None when absent): a rename
+    #: (a new sidecar) is seen by every worker
+    file_key: tuple | None = field(default=None, repr=False)
     description: dict[str, Any] | None = None  # the PoE or axes description (canonical) of such a model
     #: how a model read from xacro, MJCF or an archive was sent: ``container``, ``entry``, ``args``
     upload: dict[str, Any] | None = None
@@ -354,7 +356,7 @@ class Registry:
         if upload is not None:
             meta["upload"] = upload
         self._store(model_id, meta, content)
-        key = _file_key(os.stat(self._content_path(model_id)))
+        key = self._record_key(model_id, os.stat(self._content_path(model_id)))
         rec = ModelRecord(model_id, meta["name"], source, model, meta["created"], table, key, description,
                           _shown_upload(upload))
         with self._lock:
@@ -371,6 +373,36 @@ class Registry:
             log.error("cannot store model %s in %s: %s", model_id, self.models_dir, exc)
             raise ProblemError(507, f"model {model_id} could not be stored: {exc.strerror or exc}",
                                slug="storage-error", title="Insufficient storage") from None
+
+    def rename(self, model_id: str, name: str) -> ModelRecord:
+        """Give a stored model a new display name (its sidecar is rewritten atomically; the id, a
+        content hash, does not change). Raises UnknownModelError for bundled or unknown ids."""
+        rec = self.get(model_id)
+        if rec.bundled:
+            raise UnknownModelError(f"model {model_id!r} is bundled; its name cannot change")
+        meta = self._read_meta(model_id) or {"id": model_id, "source": rec.source, "created": rec.created}
+        meta["name"] = name
+        self._store_meta(model_id, meta)
+        renamed = replace(rec, name=name,
+                          file_key=self._record_key(model_id, os.stat(self._content_path(model_id))))
+        with self._lock:
+            self._stored[model_id] = renamed
+        return renamed
+
+    def _store_meta(self, model_id: str, meta: dict[str, Any]) -> None:
+        try:
+            atomic_write(self._meta_path(model_id), canonical_json(meta))
+        except OSError as exc:
+            log.error("cannot store the sidecar of %s in %s: %s", model_id, self.models_dir, exc)
+            raise ProblemError(507, f"model {model_id} could not be renamed: {exc.strerror or exc}",
+                               slug="storage-error", title="Insufficient storage") from None
+
+    def _record_key(self, model_id: str, content: os.stat_result) -> tuple:
+        try:
+            meta = _file_key(os.stat(self._meta_path(model_id)))
+        except FileNotFoundError:
+            meta = None
+        return (*_file_key(content), meta)
 
     def delete(self, model_id: str) -> None:
         """Remove a stored model (content file first, then its sidecar). Bundled ids are refused by the caller."""
@@ -419,7 +451,7 @@ class Registry:
         """
         path = self._content_path(model_id)
         st = os.stat(path)
-        key = _file_key(st)
+        key = self._record_key(model_id, st)
         cached = self._stored.get(model_id)
         if cached is not None and cached.file_key == key:
             return cached

@@ -9,13 +9,23 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, Strict
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict
 
 from kinematics.spatial.reference import Reference
 
 Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolean)
-Vector = list[float]
-Matrix = list[list[float]]
+Flag = Annotated[bool, Strict()]  # true or false (not 0, 1 or "yes")
+
+
+def _json_integer(value: Any) -> Any:
+    if isinstance(value, (bool, str)):
+        raise ValueError(f"expected an integer, got {'a boolean' if isinstance(value, bool) else 'a string'}")
+    return value
+
+
+Integer = Annotated[int, BeforeValidator(_json_integer)]  # a JSON integer (2.0 too; not "2", not true)
+Vector = list[Number]
+Matrix = list[list[Number]]
 JointVector = list[Number]
 #: a joint's value in a name map: a number; a floating joint 7 numbers (x, y, z, qx, qy, qz, qw) or a pose
 #: object ({"position", "quaternion"}, {"xyz", "rpy"}, a 4x4 matrix); a planar joint 4 (x, y, cos, sin)
@@ -90,7 +100,7 @@ class ModelInfo(BaseModel):
         default_factory=list, description="per joint of q, in order: name, type, q [start, stop) and v [start, stop) "
                                           "(floating: x, y, z, qx, qy, qz, qw and vx..wz in its child frame; "
                                           "planar: x, y, cos, sin and vx, vy, wz)")
-    floating_base: bool = Field(default=False, description="the model as computed with floating_base: true")
+    floating_base: Flag = Field(default=False, description="the model as computed with floating_base: true")
     root: str
     joint_names: list[str] = Field(description="the order of q")
     links: list[str]
@@ -109,6 +119,9 @@ class ModelInfo(BaseModel):
     upload: dict[str, Any] | None = Field(
         default=None, description="how a model read from xacro, MJCF or an archive was sent: `container` (zip, "
                                   "gzip, tar or null), `entry` (the file of the archive), `args` (xacro arguments)")
+    note: str | None = Field(
+        default=None, description="registrations answered 200 (the same content was already registered): what "
+                                  "happened, e.g. the new `name` applied to the stored model")
 
 
 class URDFUpload(BaseModel):
@@ -138,11 +151,11 @@ class DHJoint(BaseModel):
 class DHTable(BaseModel):
     """A Denavit-Hartenberg table, as ``POST /models/dh`` takes it and ``GET /models/{id}/dh`` gives it."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="forbid")
     name: str | None = None
-    convention: Literal["standard", "modified"] = "standard"
-    angles: Literal["radians", "degrees"] = "radians"
-    joints: list[DHJoint]
+    convention: Literal["standard", "modified"] | None = Field(default="standard", description="null: standard")
+    angles: Literal["radians", "degrees"] | None = Field(default="radians", description="null: radians")
+    joints: list[DHJoint] = Field(min_length=1)
     base: Matrix | dict[str, Vector] | None = Field(
         default=None, description="T_world_frame0: 4x4, or {xyz, rpy}; default identity")
     tool: Matrix | dict[str, Vector] | None = Field(
@@ -164,9 +177,9 @@ class PoEDescriptionIn(BaseModel):
     """A product-of-exponentials description: ``T(q) = exp([S_1] q_1) ... exp([S_n] q_n) M``
     (or ``M exp([B_1] q_1) ... exp([B_n] q_n)``)."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="forbid")
     name: str | None = None
-    angles: Literal["radians", "degrees"] = "radians"
+    angles: Literal["radians", "degrees"] | None = Field(default="radians", description="null: radians")
     M: Matrix | dict[str, Vector] = Field(description="end-effector pose at q = 0: 4x4, or {xyz, rpy}")
     joints: list[PoEJointIn]
 
@@ -185,10 +198,10 @@ class AxesJointIn(BaseModel):
 class AxesDescriptionIn(BaseModel):
     """Zero-configuration axes (Wen): ``p_0T = p_01 + R_01 p_12 + ... + R_0n p_nT``, ``R_{i-1,i} = rot(h_i, q_i)``."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="forbid")
     name: str | None = None
-    angles: Literal["radians", "degrees"] = "radians"
-    joints: list[AxesJointIn]
+    angles: Literal["radians", "degrees"] | None = Field(default="radians", description="null: radians")
+    joints: list[AxesJointIn] = Field(min_length=1)
     p_nT: Vector | None = Field(default=None, description="tool offset in frame n (default 0)")
     R_nT: Matrix | dict[str, Vector] | None = Field(default=None, description="tool orientation: 3x3 or {rpy}")
 
@@ -214,10 +227,10 @@ class Screws(BaseModel):
 
 # ---------------------------------------------------------------------- kinematics
 class Quaternion(BaseModel):
-    w: float
-    x: float
-    y: float
-    z: float
+    w: Number
+    x: Number
+    y: Number
+    z: Number
 
 
 class Pose(BaseModel):
@@ -292,7 +305,7 @@ class FKRequest(BaseModel):
     q: JointValues = Field(description=_Q_DESC)
     links: Union[Literal["all"], list[str], None] = Field(
         default=None, description='link names; "all" for every link; default: the leaf links')
-    verify: bool = Field(default=False, description="also compare with Pinocchio and report the largest deviations")
+    verify: Flag = Field(default=False, description="also compare with Pinocchio and report the largest deviations")
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
@@ -301,8 +314,8 @@ class FKRequest(BaseModel):
         default="pose",
         description="pose: matrix, position, quaternion, rpy per link; matrix: the 4x4 only; "
                     "compact: per link positions (N,3) and quaternions (N,4, w first) arrays")
-    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
-    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
+    floating_base: Flag = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: Flag = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class FKResponse(BaseModel):
@@ -332,13 +345,13 @@ class JacobianRequest(BaseModel):
     q: JointValues = Field(description=_Q_DESC)
     link: str | None = Field(default=None, description="default: the first leaf link")
     reference: References = Field(default=Reference.WORLD, description="world | local | local_world_aligned (Pinocchio's meaning)")
-    verify: bool = False
+    verify: Flag = False
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
-    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
-    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
+    floating_base: Flag = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: Flag = Field(default=False, description=_NORMALIZE_DESC)
     representation: Union[TaskRepresentationName, None] = Field(default=None, description=_ANALYTIC_DESC)
     components: list[str] | None = Field(default=None, description="with representation: keep these components "
                                          "of the task vector (default all)")
@@ -368,8 +381,8 @@ _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", 
 
 class IKTolerance(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: float = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
-    rotation: float = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
+    position: Number = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
+    rotation: Number = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
 
 
 class IKRequest(BaseModel):
@@ -382,16 +395,16 @@ class IKRequest(BaseModel):
     mode: Literal["pose", "position"] = Field(
         default="pose", description="pose: position and orientation; position: the position only (orientation free)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
-    max_iterations: int = Field(default=100, ge=1, le=10_000, description="steps per attempt")
-    restarts: int = Field(default=50, ge=0, le=10_000,
+    max_iterations: Integer = Field(default=100, ge=1, le=10_000, description="steps per attempt")
+    restarts: Integer = Field(default=50, ge=0, le=10_000,
                           description="attempts from random configurations within the limits after the first")
-    random_seed: int = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
+    random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
-    verify: bool = Field(default=False, description="also Pinocchio's FK of every answer, against its target")
-    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
-    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
+    verify: Flag = Field(default=False, description="also Pinocchio's FK of every answer, against its target")
+    floating_base: Flag = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: Flag = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class IKVerification(BaseModel):
@@ -420,13 +433,13 @@ class VelocityRequest(BaseModel):
     qdot: JointValues = Field(description="joint velocities (rad/s, m/s), in the same form as q: one vector or map "
                                           "per configuration; a mimic joint moves with multiplier * its leader's")
     links: Union[Literal["all"], list[str], None] = Field(default=None, description='link names; default (or "all"): every link')
-    verify: bool = Field(default=False, description="also compare every twist with Pinocchio's getFrameVelocity")
+    verify: Flag = Field(default=False, description="also compare every twist with Pinocchio's getFrameVelocity")
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC + " The base is at rest.")
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
-    floating_base: bool = Field(default=False, description=_FLOATING_BASE_DESC)
-    normalize: bool = Field(default=False, description=_NORMALIZE_DESC)
+    floating_base: Flag = Field(default=False, description=_FLOATING_BASE_DESC)
+    normalize: Flag = Field(default=False, description=_NORMALIZE_DESC)
 
 
 class Twists(BaseModel):
@@ -477,13 +490,13 @@ class _SymbolicOptions(BaseModel):
                                                  "(6 x n, linear rows first); task: r(q) and J_r = dr/dq")
     format: SymbolicFormat = Field(default="latex", description="latex (compact c_12, s_1 notation), text "
                                    "(strings sympy.sympify reads), python (numpy module), c (C99 functions)")
-    simplify: bool = Field(default=True, description="combine and collect terms (false: the expanded forms, fastest)")
+    simplify: Flag = Field(default=True, description="combine and collect terms (false: the expanded forms, fastest)")
     representation: TaskRepresentationName | None = Field(
         default=None, description=_REPRESENTATION_DESC + "; default rpy (quaternion: the qw >= 0 branch, valid where qw > 0; rotvec: valid below a half turn)")
-    components: list[str] | None = Field(default=None, description="keep these components of the task vector")
+    components: list[str] | None = Field(default=None, min_length=1, description="keep these components of the task vector")
     variables: Literal["q", "names"] = Field(default="q", description="joint variables q1..qn, or the joint names")
     prefix: str = Field(default="", max_length=64, description="prefix of the C function names")
-    timeout: float | None = Field(default=None, gt=0, description="seconds (at most the service's limit)")
+    timeout: Number | None = Field(default=None, gt=0, description="seconds (at most the service's limit)")
 
 
 class SymbolicRequest(_SymbolicOptions):
@@ -538,7 +551,7 @@ class TaskRequest(BaseModel):
     q: JointValues = Field(description=_Q_DESC)
     link: str | None = Field(default=None, description="default: the first leaf link")
     representation: TaskRepresentationName = Field(default="rpy", description=_REPRESENTATION_DESC)
-    components: list[str] | None = Field(default=None, description="keep these components (default all)")
+    components: list[str] | None = Field(default=None, min_length=1, description="keep these components (default all)")
     limits: LimitPolicy = Field(default="report", description=_LIMITS_DESC)
     base: Union[BasePose, list[BasePose], None] = Field(default=None, description=_BASE_DESC)
 
@@ -559,10 +572,10 @@ class WorkspaceRequest(BaseModel):
     link: str | None = Field(default=None, description="the link (default: the first leaf link)")
     point: Union[Point, None] = Field(default=None, description=_POINT_DESC)
     tool: Union[BasePose, None] = Field(default=None, description=_TOOL_DESC)
-    samples: int = Field(default=100_000, ge=1, description="configurations drawn uniformly within the joint limits "
+    samples: Integer = Field(default=100_000, ge=1, description="configurations drawn uniformly within the joint limits "
                                                              "(bounded by the max_workspace_samples setting)")
-    random_seed: int = Field(default=0, ge=0, le=2**63 - 1, description="seed of the draws: same inputs, same answer")
-    voxel: float | None = Field(default=None, gt=0, description="edge of the occupancy-grid cells, metres (default: "
+    random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="seed of the draws: same inputs, same answer")
+    voxel: Number | None = Field(default=None, gt=0, description="edge of the occupancy-grid cells, metres (default: "
                                                                 "chosen so that the bounding box has about samples/16 cells)")
     measure: Literal["pose", "position"] = Field(
         default="pose", description="manipulability: product of the singular values of the 6 x k local_world_aligned "

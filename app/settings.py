@@ -25,6 +25,11 @@ variable                   default                     meaning
 ``KIN_XACRO_MAX_MACRO_CALLS`` 20,000                   macro calls in one expansion
 ``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
 ``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
+``KIN_LOG_FORMAT``         ``text``                    ``json``: access and error logs as one JSON
+                                                       object per line (time, level, logger,
+                                                       message, request_id; access: method,
+                                                       path, route, status, duration_ms,
+                                                       problem; errors: exception, traceback)
 ``KIN_API_KEY``            (unset)                     when set, writes need it
 ``KIN_API_KEY_FOR_READS``  ``false``                   when true (and a key is set), reads
                                                        need it too
@@ -36,7 +41,7 @@ The key goes in ``X-API-Key: <key>`` or ``Authorization: Bearer <key>``.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
@@ -76,6 +81,8 @@ class Settings(BaseSettings):
     xacro_max_macro_calls: int = Field(default=20_000, gt=0, description="most macro calls in one xacro expansion")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     log_level: str = "info"
+    log_format: Literal["text", "json"] = Field(
+        default="text", description="json: access and error logs as one JSON object per line (app/logs.py)")
     api_key: SecretStr | None = None
     api_key_for_reads: bool = False
 

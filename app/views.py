@@ -25,9 +25,11 @@ def joint_info(joint: Joint) -> dict:
     }
 
 
-def model_info(rec: ModelRecord, floating_base: bool = False) -> dict:
+def model_info(rec: ModelRecord, floating_base: bool = False, note: str | None = None) -> dict:
+    """The model info (``floating_base``: of the model on a free-flyer root joint); ``note`` says what
+    a registration did when it did not create the model."""
     m = with_floating_base(rec.model) if floating_base else rec.model
-    return {
+    info = {
         "id": rec.id, "name": rec.name, "source": rec.source, "dof": m.dof, "nq": m.nq, "nv": m.nv,
         "q_layout": [s.as_dict() for s in m.layout], "floating_base": floating_base, "root": m.root,
         "joint_names": list(m.joint_names), "links": list(m.links), "leaf_links": list(m.leaf_links),
@@ -35,6 +37,9 @@ def model_info(rec: ModelRecord, floating_base: bool = False) -> dict:
         "urdf_sha256": m.content_hash, "created": rec.created, "dh_table": rec.dh_table,
         "description": rec.description, "format": _format(rec), "upload": rec.upload,
     }
+    if note is not None:
+        info["note"] = note
+    return info
 
 
 def _format(rec: ModelRecord) -> str:

@@ -493,6 +493,14 @@ def warm_up() -> None:
     ik(model, pose, link="arm")
 
 
+def compiled_models() -> tuple[int, int]:
+    """``(compiled, cached)``: how many models this process has compiled to their PoE form so far,
+    and how many compiled forms it holds now (one per live model). For monitoring."""
+    from .engine.poe import _compiled
+
+    return _compiled.built, len(_compiled)
+
+
 def screws(model: RobotModel):
     """The model's product-of-exponentials parameters (:class:`~kinematics.engine.poe.PoEModel`):
     space screws ``S`` (angular first), axes ``w``, points ``r``, home poses ``M`` (models of

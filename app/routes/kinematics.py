@@ -88,7 +88,11 @@ def parse_point(value: str | None) -> list[float] | None:
     return point
 
 
-PointQuery = Annotated[str | None, Query(description=".npy bodies: a point x,y,z in the link frame (metres)")]
+_NUMBER = r"\s*[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\s*"
+#: three comma-separated numbers (what :func:`parse_point` reads), declared so the OpenAPI document says it
+POINT_PATTERN = rf"^{_NUMBER},{_NUMBER},{_NUMBER}$"
+PointQuery = Annotated[str | None, Query(description=".npy bodies: a point x,y,z in the link frame (metres)",
+                                         pattern=POINT_PATTERN)]
 FloatingBaseQuery = Annotated[bool, Query(description=".npy bodies: the model on a free-flyer root joint")]
 NormalizeQuery = Annotated[bool, Query(description=".npy bodies: scale quaternions and planar (cos, sin) to unit norm")]
 

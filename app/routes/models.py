@@ -8,6 +8,7 @@ from typing import Annotated, Literal
 import orjson
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import Response as PlainResponse
+from pydantic import StringConstraints
 
 from kinematics import api
 from kinematics.io.archive import ArchiveLimits
@@ -70,6 +71,11 @@ def _xacro_args(args_json: str | None, arg: list[str] | None) -> dict[str, str] 
             raise ProblemError(422, f"args is not valid JSON: {exc}", slug="validation-error", field="args") from None
         if not isinstance(parsed, dict):
             raise ProblemError(422, "args must be a JSON object of xacro arguments", slug="validation-error", field="args")
+        if len(parsed) > MAX_QUERY_ARGS or any(len(k) > MAX_QUERY_ARG_NAME for k in parsed) or any(
+                isinstance(v, str) and len(v) > MAX_QUERY_ARG_VALUE for v in parsed.values()):
+            raise ProblemError(422, f"args: at most {MAX_QUERY_ARGS} arguments in the query, names of at most "
+                               f"{MAX_QUERY_ARG_NAME} characters and strings of at most {MAX_QUERY_ARG_VALUE}; send "
+                               "more in the JSON body's \"args\"", slug="validation-error", field="args")
         for k, v in parsed.items():
             if isinstance(v, (dict, list)) or v is None:
                 raise ProblemError(422, f"args: xacro argument {k!r} must be a string or a number",
@@ -83,14 +89,35 @@ def _xacro_args(args_json: str | None, arg: list[str] | None) -> dict[str, str] 
     return out or None
 
 
+#: the query forms of xacro arguments are bounded so that a URL stays under the HTTP server's
+#: 64 KiB request-line limit even percent-encoded (more arguments: the JSON body's ``args``)
+MAX_QUERY_ARGS, MAX_QUERY_ARG_NAME, MAX_QUERY_ARG_VALUE = 16, 32, 100
+
+#: ``?args=``: a JSON object in the query, documented as such (OpenAPI parameter ``content``)
+ARGS_PARAMETER = {
+    "name": "args", "in": "query", "required": False,
+    "description": "xacro arguments: a JSON object `{\"name\": value}` (values: strings, numbers, booleans; at most "
+                   f"{MAX_QUERY_ARGS}, names of at most {MAX_QUERY_ARG_NAME} characters, strings of at most "
+                   f"{MAX_QUERY_ARG_VALUE}; more through the JSON body)",
+    "content": {"application/json": {"schema": {
+        "type": "object", "maxProperties": MAX_QUERY_ARGS, "propertyNames": {"maxLength": MAX_QUERY_ARG_NAME},
+        "additionalProperties": {"anyOf": [{"type": "string", "maxLength": MAX_QUERY_ARG_VALUE}, {"type": "number"},
+                                           {"type": "boolean"}]}}}},
+}
+
+
+#: one ``?arg=name:value`` (or ``name=value``): a name, then the first ``:`` or ``=`` (what _xacro_args splits on)
+XacroArg = Annotated[str, StringConstraints(max_length=MAX_QUERY_ARG_VALUE,
+                                            pattern=r"^(?:[^:][\s\S]*:|[^=][\s\S]*=)[\s\S]*$")]
+
+
 async def read_urdf_upload(
     request: Request, settings: SettingsDep,
     name: Annotated[str | None, Query(max_length=200, description="display name (raw bodies)")] = None,
-    args: Annotated[str | None, Query(max_length=100_000, description="xacro arguments: a JSON object "
-                                      "`{\"name\": value}`")] = None,
-    arg: Annotated[list[str] | None, Query(max_length=10_000, description="a xacro argument `name:value` "
+    args: Annotated[str | None, Query(max_length=100_000, include_in_schema=False)] = None,  # ARGS_PARAMETER
+    arg: Annotated[list[XacroArg] | None, Query(max_length=MAX_QUERY_ARGS, description="a xacro argument `name:value` "
                                            "(repeatable)")] = None,
-    entry: Annotated[str | None, Query(max_length=1000, description="the description file of an archive "
+    entry: Annotated[str | None, Query(max_length=255, description="the description file of an archive "
                                        "(default: its only one)")] = None,
 ) -> Upload:
     """The body of a ``POST /models``: a raw document (URDF, xacro, MJCF: XML types), an archive
@@ -115,6 +142,9 @@ async def read_urdf_upload(
     return Upload(body, name, xargs, entry)
 
 
+_SAME = "already registered (the same description has the same id); nothing changed"
+
+
 def _created(response: Response, created: bool, model_id: str) -> None:
     response.status_code = 201 if created else 200
     if created:
@@ -123,9 +153,9 @@ def _created(response: Response, created: bool, model_id: str) -> None:
 
 @router.post(
     "/models", response_model=ModelInfo, status_code=201, responses={200: {"model": ModelInfo, "description":
-        "the same URDF is already registered (same id)"}, **_WRITE_ERRORS},
+        "the same content is already registered (same id); a new `name` is applied to it; `note` says what happened"}, **_WRITE_ERRORS},
     dependencies=[Depends(require_write_key)],
-    openapi_extra={"requestBody": {"required": True, "content": {
+    openapi_extra={"parameters": [ARGS_PARAMETER], "requestBody": {"required": True, "content": {
         "application/xml": {"schema": {"type": "string"}, "example": TWO_LINK_URDF},
         "application/json": {"schema": {"$ref": "#/components/schemas/URDFUpload"}, "examples": URDF_EXAMPLES},
         "application/zip": {"schema": {"type": "string", "format": "binary"}},
@@ -148,7 +178,9 @@ def register_urdf(upload: Annotated[Upload, Depends(read_urdf_upload)], registry
     The last three are stored as the URDF they became (`GET /models/{id}/urdf`), under an id
     `x-`, `m-` or `a-` + 16 hex digits hashing the bytes, the arguments and the entry; `format`
     in the answer says what was read. 201 when created, 200 when already registered; the body
-    is the model's info either way. Meshes named by any file are never opened.
+    is the model's info either way. Sending the same content again with another `name` (query or
+    JSON) renames the stored model (its id is the content's hash, so it does not change) and the
+    200's `note` says so: `already registered as u-...; renamed from 'a' to 'b'`. Meshes named by any file are never opened.
     """
     rec, created = registry.add_upload(
         upload.data, upload.name, args=upload.args, entry=upload.entry,
@@ -160,7 +192,14 @@ def register_urdf(upload: Annotated[Upload, Depends(read_urdf_upload)], registry
                                      max_stream_bytes=8 * settings.max_archive_bytes),
     )
     _created(response, created, rec.id)
-    return model_info(rec)
+    if created:
+        return model_info(rec)
+    if upload.name is not None and upload.name != rec.name:
+        old = rec.name
+        rec = registry.rename(rec.id, upload.name)
+        return model_info(rec, note=f"already registered as {rec.id} (same content); renamed from {old!r} to "
+                                    f"{rec.name!r}")
+    return model_info(rec, note=f"already registered as {rec.id} (same content); nothing changed")
 
 
 async def read_json_object(request: Request, settings: SettingsDep, what: str) -> dict:
@@ -207,7 +246,7 @@ def register_dh(table: Annotated[dict, Depends(read_dh_table)], registry: Regist
     """
     rec, created = registry.add_dh(table)
     _created(response, created, rec.id)
-    return model_info(rec)
+    return model_info(rec, note=None if created else _SAME)
 
 
 @router.post(
@@ -228,7 +267,7 @@ def register_poe(description: Annotated[dict, Depends(read_poe)], registry: Regi
     """
     rec, created = registry.add_description("poe", description)
     _created(response, created, rec.id)
-    return model_info(rec)
+    return model_info(rec, note=None if created else _SAME)
 
 
 @router.post(
@@ -248,7 +287,7 @@ def register_axes(description: Annotated[dict, Depends(read_axes)], registry: Re
     """
     rec, created = registry.add_description("axes", description)
     _created(response, created, rec.id)
-    return model_info(rec)
+    return model_info(rec, note=None if created else _SAME)
 
 
 @router.get("/models/{model_id}", response_model=ModelInfo, responses=_ERRORS)
@@ -270,13 +309,17 @@ def get_urdf(model_id: ModelId, registry: RegistryDep) -> PlainResponse:
 
 
 @router.delete("/models/{model_id}", status_code=204, response_class=PlainResponse, responses={
-    **_WRITE_ERRORS, 405: {"model": Problem, "description": "bundled models are read-only"}},
+    **_WRITE_ERRORS, 403: {"model": Problem, "description": "the model is bundled, so read-only (`read-only-model`); "
+                          "with KIN_API_KEY set, also an API key that is not valid (`api-key-invalid`)"}},
     dependencies=[Depends(require_write_key)])
 def delete_model(model_id: ModelId, registry: RegistryDep) -> PlainResponse:
-    """Remove an uploaded or DH-built model (from every worker and replica sharing the data directory)."""
+    """Remove an uploaded or DH-built model (from every worker and replica sharing the data directory).
+
+    Bundled models are read-only: deleting one is refused with 403 `read-only-model` (the method is
+    supported on the path, so not 405; the refusal does not depend on the API key)."""
     if registry.is_bundled(model_id):
-        raise ProblemError(405, f"model {model_id!r} is bundled and read-only; only uploaded and DH-built "
-                           "models can be deleted", slug="read-only-model", headers={"Allow": "GET"}, model=model_id)
+        raise ProblemError(403, f"model {model_id!r} is bundled and read-only; only uploaded and DH-built "
+                           "models can be deleted", slug="read-only-model", title="Read-only model", model=model_id)
     registry.delete(model_id)
     return PlainResponse(status_code=204)
 

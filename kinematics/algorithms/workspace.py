@@ -163,6 +163,8 @@ def _frame_of(P: np.ndarray) -> tuple[int, np.ndarray]:
     a flat direction along a world axis keeps the world axes)."""
     sub = P[:: max(1, P.shape[0] // PCA_SAMPLES)]
     c = sub - sub.mean(axis=0)
+    if c.shape[0] < 3:  # zero rows change no singular value: three axes even from one or two samples
+        c = np.vstack([c, np.zeros((3 - c.shape[0], 3))])
     _, s, Vt = np.linalg.svd(c / math.sqrt(max(len(sub), 1)), full_matrices=False)
     tol = max(FLAT_TOLERANCE * (s[0] if s.size else 0.0), 1e-12)
     dim = int(np.count_nonzero(s > tol))
@@ -198,8 +200,14 @@ def _grid(X: np.ndarray, dim: int, axes: np.ndarray, h: float) -> _Grid:
     extent = hi - lo
     counts = np.ones(3, dtype=np.int64)
     cell = np.zeros(3)
+    with np.errstate(over="ignore"):  # a tiny h makes these huge, or infinite: refused below
+        halves = [float(extent[i] / (2 * h)) for i in range(dim)]
+    wanted = float(np.prod([2.0 * max(1.0, x) for x in halves])) if dim else 1.0
+    if not math.isfinite(wanted) or wanted > MAX_CELLS:
+        raise KinematicsError(f"voxel: {h:g} m makes a grid of {wanted:.3g} cells over the "
+                              f"{extent.max():.3g} m workspace; give a larger voxel")
     for i in range(dim):
-        n = 2 * max(1, math.ceil(extent[i] / (2 * h)))
+        n = 2 * max(1, math.ceil(halves[i]))
         counts[i] = n
         cell[i] = extent[i] / n
     if float(np.prod(counts.astype(float))) > MAX_CELLS:

@@ -26,6 +26,8 @@ class PerModel(Generic[T]):
         self._build = build
         self._values: "weakref.WeakKeyDictionary[RobotModel, T]" = weakref.WeakKeyDictionary()
         self._lock = threading.Lock()
+        #: how many values were built (a count for monitoring; the values of dropped models included)
+        self.built = 0
 
     def __call__(self, model: RobotModel) -> T:
         value = self._values.get(model)
@@ -35,4 +37,9 @@ class PerModel(Generic[T]):
                 if value is None:
                     value = self._build(model)
                     self._values[model] = value
+                    self.built += 1
         return value
+
+    def __len__(self) -> int:
+        """How many values are held now (one per live model)."""
+        return len(self._values)

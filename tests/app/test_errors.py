@@ -23,8 +23,14 @@ def assert_problem(r, status: int) -> dict:
 
 def test_unknown_route_and_method(api_client):
     assert "/nowhere" in assert_problem(api_client.get("/nowhere"), 404)["detail"]
-    assert "PUT" in assert_problem(api_client.put("/models/ur5"), 405)["detail"]
-    assert_problem(api_client.get("/models/ur5/fk"), 405)
+    r = api_client.put("/models/ur5")
+    assert "PUT" in assert_problem(r, 405)["detail"]
+    # Allow names every method of the path (GET and DELETE are two routes), not the first route's
+    assert r.headers["allow"] == "GET, DELETE"
+    r = api_client.get("/models/ur5/fk")
+    assert_problem(r, 405)
+    assert r.headers["allow"] == "POST"
+    assert api_client.options("/models").headers["allow"] == "GET, POST"
 
 
 def test_validation_error_is_problem(api_client):

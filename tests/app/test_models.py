@@ -100,7 +100,10 @@ def test_upload_201_then_200_same_id(api_client):
     # the same document in the JSON form: same bytes, same id, 200
     r2 = api_client.post("/models", json={"urdf": TWO_LINK_URDF, "name": "other name"})
     assert r2.status_code == 200 and r2.json()["id"] == mid
-    assert r2.json()["name"] == "two_link"  # the first registration's name stays
+    # a new name is applied to the stored model, and the answer says so
+    assert r2.json()["name"] == "other name"
+    assert r2.json()["note"] == f"already registered as {mid} (same content); renamed from 'two_link' to 'other name'"
+    assert api_client.get(f"/models/{mid}").json()["name"] == "other name"
     assert mid in {m["id"] for m in api_client.get("/models").json()}
     assert api_client.get(f"/models/{mid}/urdf").text == TWO_LINK_URDF
 
@@ -137,7 +140,8 @@ def test_delete_uploaded_and_bundled_is_read_only(api_client):
     assert api_client.delete(f"/models/{mid}").status_code == 404
     assert mid not in {m["id"] for m in api_client.get("/models").json()}
     r = api_client.delete("/models/ur5")
-    assert r.status_code == 405 and r.headers["content-type"] == PROBLEM and "read-only" in r.json()["detail"]
+    assert r.status_code == 403 and r.headers["content-type"] == PROBLEM and "read-only" in r.json()["detail"]
+    assert r.json()["type"] == "urn:kinematics:problem:read-only-model" and r.json()["model"] == "ur5"
     assert api_client.get("/models/ur5").status_code == 200
 
 
@@ -149,7 +153,7 @@ def test_path_like_ids_never_touch_files(api_client, path):
     assert r.status_code in (404, 422)
     assert r.headers["content-type"] == PROBLEM
     r = api_client.delete(path)
-    assert r.status_code in (404, 405, 422)
+    assert r.status_code in (403, 404, 422)
 
 
 def test_two_replicas_share_one_data_dir(make_client):
@@ -316,4 +320,4 @@ def test_dh_preset_is_listed_with_its_table_and_matches_the_closed_form(api_clie
     np.testing.assert_allclose(fk["poses"]["tool"]["position"],
                                [l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2), 0.0],
                                atol=1e-12)
-    assert api_client.delete("/models/planar_2r").status_code == 405
+    assert api_client.delete("/models/planar_2r").status_code == 403

@@ -167,3 +167,17 @@ def test_refusals_and_budget(catalogue):
         pytest.skip("the parser gives unlimited prismatic joints a default range")
     with pytest.raises(KinematicsError, match="prismatic without limits"):
         api.workspace(unlimited, "carriage", samples=100)
+
+
+def test_tiny_voxel_and_few_samples_found_by_the_fuzzer():
+    """Two 500s schemathesis found (issue 18): a voxel so small that the cell count overflows a float
+    (now a KinematicsError naming the voxel), and fewer than three samples (the cloud's axes)."""
+    from kinematics import default_catalogue
+
+    ur5 = default_catalogue().get("ur5")
+    with pytest.raises(KinematicsError, match="voxel"):
+        api.workspace(ur5, samples=100, voxel=5e-324)
+    hand = default_catalogue().get("allegro_left_hand")
+    for n, dim in ((1, 0), (2, 1), (3, 2)):
+        ws = api.workspace(hand, samples=n)
+        assert ws.dimension == dim and ws.samples == n

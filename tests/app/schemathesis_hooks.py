@@ -1,0 +1,77 @@
+"""Schemathesis hooks of the live conformance test (``SCHEMATHESIS_HOOKS=tests.app.schemathesis_hooks``).
+
+Two checks are registered, each run *instead of* a built-in one (the test excludes those):
+
+:func:`positive_data_acceptance_semantic` replaces ``positive_data_acceptance`` (ST202). The built-in one fails every schema-valid request that is
+not answered 2xx/401/403/404/409/429. Part of this service's validation cannot be written in
+an OpenAPI document, because it depends on *which* model the path names or on what a document
+says, not on the shape of the request:
+
+* ``q`` must hold ``dof`` values of *that* model (``invalid-joint-values``), names must be its
+  joints; a chain must exist (``no-dh-form``, ``invalid-symbolic-request``), ...;
+* a URDF / xacro / MJCF / DH / PoE / axes body must describe a robot (``invalid-urdf``,
+  ``invalid-dh-table``, ...), which JSON Schema cannot check of an XML string or a matrix;
+* budgets (``batch-too-large``, ``result-too-large``, ...) bound products of sizes (targets x
+  restarts x iterations, configurations x links x 16) against the server's settings.
+
+Those answers are 413/422 problems whose ``type`` is one of the library's problem types
+(:data:`app.errors.KINEMATICS_ERRORS`, the budgets). Only they are accepted here; every other
+refusal of a schema-valid request is still a failure -- in particular the app's own
+``validation-error`` (which would mean the document and the server disagree about the shape
+of a request), ``unsupported-media-type``, ``bad-request`` and ``invalid-npy``.
+
+:func:`resource_availability_of_models` replaces ``ensure_resource_availability`` (ST302, stateful
+phase: a 404 right after ``POST /models`` created a model means the model is not available). A
+404 whose problem is ``unknown-link`` *names the created model* (``model``: its id): the model
+was found and a link named in the body (``tip``, ``link``, ``links``) is not one of its links --
+an example written for the UR5 sent to a two-link arm. That answer does not show the created
+resource missing, so it is not counted; every other 404 still is.
+"""
+
+from __future__ import annotations
+
+import schemathesis
+from schemathesis.specs.openapi.checks import ensure_resource_availability, positive_data_acceptance
+
+from app.errors import KINEMATICS_ERRORS, PROBLEM_TYPE_PREFIX
+
+BUDGETS = ("batch", "verify", "result", "ik-work", "workspace-samples")
+#: problem types that depend on the model or on the content of a description (see the docstring)
+SEMANTIC_TYPES = frozenset(
+    {PROBLEM_TYPE_PREFIX + slug for _, status, slug, _ in KINEMATICS_ERRORS if status == 422}
+    | {PROBLEM_TYPE_PREFIX + f"{budget}-too-large" for budget in BUDGETS}
+    | {PROBLEM_TYPE_PREFIX + "model-too-large", PROBLEM_TYPE_PREFIX + "expansion-too-large",
+       PROBLEM_TYPE_PREFIX + "archive-too-large"}
+)
+
+
+def _problem_type(response) -> str | None:
+    if response.status_code not in (413, 422):
+        return None
+    try:
+        body = response.json()
+    except Exception:
+        return None
+    return body.get("type") if isinstance(body, dict) else None
+
+
+@schemathesis.check
+def positive_data_acceptance_semantic(ctx, response, case):
+    """``positive_data_acceptance``, except for the model- and content-dependent refusals above."""
+    if _problem_type(response) in SEMANTIC_TYPES:
+        return None
+    return positive_data_acceptance(ctx, response, case)
+
+
+@schemathesis.check
+def resource_availability_of_models(ctx, response, case):
+    """``ensure_resource_availability``, except for a 404 that found the model and not a link of it."""
+    if response.status_code == 404:
+        try:
+            body = response.json()
+        except Exception:
+            body = None
+        if (isinstance(body, dict) and body.get("type") == PROBLEM_TYPE_PREFIX + "unknown-link"
+                and body.get("model") in (case.path_parameters or {}).values()):
+            return None
+    return ensure_resource_availability(ctx, response, case)
