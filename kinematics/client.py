@@ -187,43 +187,64 @@ class Client:
 
     # ------------------------------------------------------------------ kinematics
     def fk(self, model_id: str, q, links: Sequence[str] | str | None = None, *, verify: bool = False,
-           limits: str = "report", point: Sequence[float] | None = None) -> np.ndarray:
+           limits: str = "report", point: Sequence[float] | None = None, floating_base: bool = False,
+           normalize: bool = False) -> np.ndarray:
         """Poses ``T_world_link`` (N, L, 4, 4) of ``links`` (None: the leaf links; ``"all"``; names) for
-        joint values ``q`` (N, dof) or (dof,); the link order is ``links()``."""
-        query = {"links": _names(links), "verify": verify or None, "limits": limits,
-                 "point": None if point is None else ",".join(map(repr, map(float, point)))}
+        joint values ``q`` (N, nq) or (nq,); the link order is ``links()``. ``floating_base``: the
+        model on a free-flyer root joint (q starts with ``x, y, z, qx, qy, qz, qw``); ``normalize``:
+        scale quaternions to unit norm instead of refusing them."""
+        query = {"links": _names(links), "verify": verify or None, "limits": limits, "point": _point(point),
+                 **_layout(floating_base, normalize)}
         return self._array(f"/models/{self._id(model_id)}/fk", q, query)
 
     def jacobian(self, model_id: str, q, link: str | None = None, reference: str = "world", *, verify: bool = False,
-                 limits: str = "report", point: Sequence[float] | None = None) -> np.ndarray:
-        """Jacobians (N, 6, dof) of ``link`` (None: the first leaf link), linear rows first, in ``reference``."""
+                 limits: str = "report", point: Sequence[float] | None = None, floating_base: bool = False,
+                 normalize: bool = False) -> np.ndarray:
+        """Jacobians (N, 6, nv) of ``link`` (None: the first leaf link), linear rows first, in ``reference``."""
         query = {"link": link, "reference": reference, "verify": verify or None, "limits": limits,
-                 "point": None if point is None else ",".join(map(repr, map(float, point)))}
+                 "point": _point(point), **_layout(floating_base, normalize)}
         return self._array(f"/models/{self._id(model_id)}/jacobian", q, query)
 
+    def analytic_jacobian(self, model_id: str, q, representation: str = "rpy", link: str | None = None, *,
+                          components: Sequence[str] | None = None, limits: str = "report",
+                          point: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(J_r, r)``: the analytic Jacobian (N, m, dof) of the task vector ``r = (p, phi)`` (N, m)
+        of ``link``, orientation as ``representation`` (``rpy``, ``zyx``, ``zyz``, ``quaternion``,
+        ``rotvec``, or the subsets ``position``, ``scara``, ``planar``), rows named by ``components()``."""
+        query = {"link": link, "representation": representation, "limits": limits, "point": _point(point),
+                 "components": None if components is None else ",".join(components)}
+        A = self._array(f"/models/{self._id(model_id)}/jacobian", q, query)
+        return np.ascontiguousarray(A[:, :, :-1]), np.ascontiguousarray(A[:, :, -1])
+
+    def components(self) -> list[str] | None:
+        """The task-vector components of the last analytic Jacobian (``X-Components``)."""
+        return _split_header(self.last_headers.get("x-components"))
+
     def velocity(self, model_id: str, q, qdot, links: Sequence[str] | str | None = None, *,
-                 verify: bool = False, limits: str = "report") -> dict[str, np.ndarray]:
-        """Twists of ``links`` for joint values and velocities (N, dof): ``{reference: (N, L, 6)}``,
+                 verify: bool = False, limits: str = "report", floating_base: bool = False,
+                 normalize: bool = False) -> dict[str, np.ndarray]:
+        """Twists of ``links`` for joint values (N, nq) and velocities (N, nv): ``{reference: (N, L, 6)}``,
         linear part first (``local_world_aligned``: the link origin's velocity and the angular
         velocity, world axes)."""
         Q = np.atleast_2d(np.asarray(q, dtype=np.float64))
         Qd = np.atleast_2d(np.asarray(qdot, dtype=np.float64))
-        if Q.shape != Qd.shape:
-            raise ValueError(f"q and qdot must have the same shape, got {Q.shape} and {Qd.shape}")
+        if Q.shape[0] != Qd.shape[0]:
+            raise ValueError(f"q and qdot must have as many rows, got {Q.shape} and {Qd.shape}")
         V = self._array(f"/models/{self._id(model_id)}/velocity", np.hstack([Q, Qd]),
-                        {"links": _names(links), "verify": verify or None, "limits": limits})
+                        {"links": _names(links), "verify": verify or None, "limits": limits,
+                         **_layout(floating_base, normalize)})
         refs = _split_header(self.last_headers.get("x-twist-references"))
         return {r: np.ascontiguousarray(V[:, :, k]) for k, r in enumerate(refs or [])}
 
     def ik(self, model_id: str, target, link: str | None = None, *, mode: str = "pose",
            position_tolerance: float | None = None, rotation_tolerance: float | None = None,
            max_iterations: int | None = None, restarts: int | None = None, random_seed: int | None = None,
-           verify: bool = False) -> dict[str, np.ndarray]:
+           verify: bool = False, floating_base: bool = False) -> dict[str, np.ndarray]:
         """Joint values putting ``link`` at ``target`` ((N, 4, 4) or (4, 4) poses ``T_world_link``):
-        ``{"q" (N, dof), "success", "position_error", "rotation_error", "iterations"}`` (N,) each."""
+        ``{"q" (N, nq), "success", "position_error", "rotation_error", "iterations"}`` (N,) each."""
         query = {"link": link, "mode": mode, "position_tolerance": position_tolerance,
                  "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
-                 "random_seed": random_seed, "verify": verify or None}
+                 "random_seed": random_seed, "verify": verify or None, **_layout(floating_base, False)}
         _, _, data = self.request("POST", f"/models/{self._id(model_id)}/ik", query=query, body=_npy(target),
                                   content_type=NPY, accept=NPZ)
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
@@ -236,3 +257,12 @@ class Client:
     def links(self) -> list[str] | None:
         """The link order of the last FK or velocity answer (``X-Links``)."""
         return _split_header(self.last_headers.get("x-links"))
+
+
+def _point(point: Sequence[float] | None) -> str | None:
+    return None if point is None else ",".join(map(repr, map(float, point)))
+
+
+def _layout(floating_base: bool, normalize: bool) -> dict[str, Any]:
+    """Query flags sent only when set (an older service need not know them)."""
+    return {"floating_base": "true" if floating_base else None, "normalize": "true" if normalize else None}

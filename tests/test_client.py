@@ -55,6 +55,22 @@ def test_ik_and_velocity(server, ur5):
     np.testing.assert_allclose(V["local_world_aligned"][:, 0], np.einsum("nij,nj->ni", J, Qd), atol=1e-12)
 
 
+def test_analytic_jacobian_and_floating_base(server, ur5):
+    kin = Client(server.url)
+    Q = ur5.sample_configurations(4, np.random.default_rng(4))
+    J_r, r = kin.analytic_jacobian("ur5", Q, "zyz", link="tool0")
+    task = api.task(ur5, Q, link="tool0", representation="zyz")
+    np.testing.assert_array_equal(J_r, task.J_r)
+    np.testing.assert_array_equal(r, task.r)
+    assert kin.components() == list(task.representation.labels)
+    fb = api.model_for(ur5, floating_base=True)
+    Qf = fb.sample_configurations(4, np.random.default_rng(5))
+    T = kin.fk("ur5", Qf, links=["tool0"], floating_base=True)
+    np.testing.assert_array_equal(T, api.fk(ur5, Qf, links=["tool0"], floating_base=True).poses)
+    J = kin.jacobian("ur5", Qf, link="tool0", floating_base=True)
+    assert J.shape == (4, 6, 12) and kin.joint_names()[0] == "root_joint"
+
+
 def test_uploads_models_and_api_key(server):
     kin = Client(server.url, api_key=KEY)
     urdf = (FIXTURES / "fixture_arm.urdf") if (FIXTURES / "fixture_arm.urdf").exists() else next(FIXTURES.glob("*.urdf"))

@@ -277,9 +277,7 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
         headers = _names_headers([answer.link], answer.model.joint_names)
         headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": answer.reference.value,
                         "X-Out-Of-Limits": str(answer.out_of_limits_count())})
-        if verification:
-            headers.update({"X-Verification-Reference": verification.reference,
-                            "X-Max-Jacobian-Error": repr(verification.max_jacobian_error)})
+        headers.update(_verification_headers(verification))
         return NpyResponse(J, headers=headers)
     oob = answer.out_of_limits()
     measures = answer.conditioning()
@@ -298,31 +296,25 @@ def _jacobian(model_id: str, call: Call, request: Request, registry, settings: S
 
 def _analytic_jacobian(model_id: str, call: Call, request: Request, registry, settings: Settings):
     """The Jacobian route with ``representation``: ``J_r = dr/dq`` and ``r`` (:func:`kinematics.api.task`)."""
-    if call.representation is None:
-        raise ProblemError(422, "components: only with representation (the analytic Jacobian's task vector)",
-                           slug="validation-error", field="components")
-    if call.reference not in (None, Reference.LOCAL_WORLD_ALIGNED):
-        raise ProblemError(422, f"reference: {Reference(call.reference).value!r} with representation; the analytic "
-                           "Jacobian is built from local_world_aligned (leave reference out)",
-                           slug="validation-error", field="reference")
-    if call.floating_base:
-        raise ProblemError(422, "floating_base: not available with representation (task vectors are built on "
-                           "one-degree-of-freedom joints)", slug="validation-error", field="floating_base")
-    if call.verify:
-        raise ProblemError(422, "verify: not available with representation (Pinocchio has no analytic Jacobian); "
-                           "verify the geometric Jacobian without representation",
-                           slug="validation-error", field="verify")
+    # J_r = dr/dq is a derivative of coordinates: no reference frame enters it (it is built from the
+    # local_world_aligned Jacobian, which the answer names). components alone: the default task, rpy.
     rec = registry.get(model_id)
-    answer = api.task(rec.model, call.q, link=call.link, representation=call.representation,
+    model = api.model_for(rec.model, floating_base=call.floating_base)  # task vectors refuse multi-dof joints
+    answer = api.task(model, call.q, link=call.link, representation=call.representation or "rpy",
                       components=call.components, base=call.base, point=call.point, tool=call.tool,
                       limits=call.limits, budget=_budget(settings))
+    verification = None
+    if call.verify:  # Pinocchio has no analytic Jacobian: the geometric one J_r is built from is checked
+        verification = api.jacobian(model, call.q, link=answer.link, reference=Reference.LOCAL_WORLD_ALIGNED,
+                                    base=call.base, point=call.point, tool=call.tool, verify=True,
+                                    limits=call.limits, budget=_budget(settings)).verification
     record_configurations("jacobian", _configurations(call.q))
     labels = list(answer.representation.labels)
     if wants_npy(request):
         headers = _names_headers([answer.link], rec.model.joint_names)
         headers.update({"X-Link": headers.pop("X-Links", ""), "X-Reference": Reference.LOCAL_WORLD_ALIGNED.value,
                         "X-Representation": answer.representation.name, "X-Components": ",".join(labels),
-                        "X-Out-Of-Limits": str(answer.out_of_limits_count())})
+                        "X-Out-Of-Limits": str(answer.out_of_limits_count()), **_verification_headers(verification)})
         return NpyResponse(np.concatenate([answer.J_r, answer.r[:, :, None]], axis=2), headers=headers)
     oob = answer.out_of_limits()
     measures = answer.conditioning()
@@ -333,4 +325,13 @@ def _analytic_jacobian(model_id: str, call: Call, request: Request, registry, se
             else cond[0], "out_of_limits": oob if answer.is_batch else oob[0]}
     return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": Reference.LOCAL_WORLD_ALIGNED.value,
                              "representation": answer.representation.name, "components": labels,
-                             "joint_names": list(rec.model.joint_names), **body, "verification": None})
+                             "joint_names": list(rec.model.joint_names), **body,
+                             "verification": verification.as_dict() if verification else None})
+
+
+def _verification_headers(verification) -> dict[str, str]:
+    """The ``.npy`` answer's headers of a Jacobian verification (none without one)."""
+    if not verification:
+        return {}
+    return {"X-Verification-Reference": verification.reference,
+            "X-Max-Jacobian-Error": repr(verification.max_jacobian_error)}

@@ -141,15 +141,28 @@ def test_rpy_gimbal_lock_is_a_problem_as_on_the_task_route(api_client, rng):
     assert n.status_code == 422 and n.json()["type"].endswith("representation-singularity")
 
 
-@pytest.mark.parametrize("req, field", [
-    ({"representation": "rpy", "reference": "world"}, "reference"),
-    ({"representation": "rpy", "reference": "local"}, "reference"),
-    ({"representation": "rpy", "verify": True}, "verify"),
-    ({"components": ["px"]}, "components"),
-])
-def test_refused_combinations(api_client, req, field):
-    r = api_client.post("/models/ur5/jacobian", json={"q": [0.1] * 6, **req})
-    assert r.status_code == 422 and r.json()["field"] == field, r.text
+def test_every_schema_valid_combination_is_answered(api_client):
+    """J_r = dr/dq involves no reference frame, so ``reference`` does not change it; ``components``
+    alone asks the default task (rpy, as /task); ``verify`` checks the geometric Jacobian J_r is
+    built from; ``floating_base`` is refused by the library (task vectors need one-dof joints)."""
+    q = {"q": [0.1] * 6}
+    base = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy"}).json()
+    for reference in ("world", "local", "local_world_aligned"):
+        r = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "reference": reference})
+        assert r.status_code == 200 and r.json()["jacobian"] == base["jacobian"]
+        assert r.json()["reference"] == "local_world_aligned"
+    alone = api_client.post("/models/ur5/jacobian", json={**q, "components": ["px", "yaw"]}).json()
+    assert alone["representation"] == "rpy" and alone["components"] == ["px", "yaw"]
+    assert alone["jacobian"] == [base["jacobian"][0], base["jacobian"][5]]
+    checked = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "verify": True}).json()
+    assert checked["jacobian"] == base["jacobian"]
+    assert checked["verification"]["max_jacobian_error"] < 1e-9
+    n = api_client.post("/models/ur5/jacobian?representation=rpy&verify=true", content=_npy([0.1] * 6),
+                        headers={"Content-Type": NPY, "Accept": NPY})
+    assert n.status_code == 200 and float(n.headers["X-Max-Jacobian-Error"]) < 1e-9
+    fb = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "floating_base": True,
+                                                       "q": [0, 0, 0, 0, 0, 0, 1] + [0.1] * 6})
+    assert fb.status_code == 422 and "floating" in fb.json()["detail"], fb.text
 
 
 def test_explicit_local_world_aligned_and_bad_components(api_client):
