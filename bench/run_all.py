@@ -22,11 +22,11 @@ import time
 
 from .common import Report, machine_info
 
-SUITES = ("kernels", "scaling", "service", "ik", "logs")
+SUITES = ("kernels", "scaling", "service", "ik", "logs", "floating")
 #: the suites run when --only is not given
 DEFAULT_SUITES = ("kernels", "scaling", "service")
 #: suites whose tables are written to their own file, beside --output (not into it)
-SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md"}
+SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md", "floating": "RESULTS_FLOATING.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 
