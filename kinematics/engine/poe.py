@@ -322,8 +322,9 @@ _compiled = PerModel(_compile)
 def compile_model(model: RobotModel) -> "PoEModel | TreeModel":
     """The compiled form of ``model``, built once per model object (thread-safe) and kept as long
     as the model lives: the PoE kernels' :class:`PoEModel` for a model of one-dof joints; for a
-    model whose only multi-dof joint is a floating joint hanging from the root link (``floating_base``,
-    an MJCF freejoint of a top-level body) the same kernels below that joint,
+    model whose only multi-dof joint is a floating joint with only fixed joints outside its sub-tree
+    (hanging from the root link: ``floating_base``, an MJCF freejoint of a top-level body) the same
+    kernels below that joint,
     :class:`~kinematics.engine.rooted.FloatingRootModel`; for any other model with a floating or planar
     joint the numpy tree walk :class:`~kinematics.engine.tree.TreeModel`. The last two have the same
     ``fk``, ``jacobian``, ``velocity``, ``frames``, ``integrate`` and ``link_indices``."""

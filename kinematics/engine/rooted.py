@@ -1,11 +1,13 @@
 """The fast engine of models on a floating root: the compiled PoE kernels below one free-flyer joint.
 
-A model whose only multi-dof joint is a **floating joint hanging from the root link** -- ``floating_base:
-true`` (``root_joint`` under ``universe``), an MJCF ``<freejoint>`` of a top-level body, a URDF with a
+A model whose only multi-dof joint is a **floating joint at the root** -- hanging from the root link
+(or from a link fixed to it), every joint outside its sub-tree fixed: ``floating_base: true``
+(``root_joint`` under ``universe``), an MJCF ``<freejoint>`` of a top-level body, a URDF with a
 floating root joint -- is, below that joint, an ordinary model of one-dof joints. With ``B`` the pose
 of the floating joint's child link ``C``,
 
-    B = T_world_C = O · X(q_b)           (O: the joint's origin, X: its motion from x, y, z, qx, qy, qz, qw)
+    B = T_world_C = O · X(q_b)           (O = T_world_parent · origin, constant; X: the joint's motion
+                                          from x, y, z, qx, qy, qz, qw)
     T_world_L = B · T_C_L(q_sub)          (L below C: the sub-tree's PoE product, C its root frame)
     T_world_L = constant                  (the root link and links fixed to it)
 
@@ -22,9 +24,9 @@ their velocity entries. Twists (:meth:`FloatingRootModel.velocity`): the sub-tre
 ``C``'s frame plus the floating joint's, moved to the world by ``Ad(B)``. Results equal the numpy tree
 walk's (:class:`~kinematics.engine.tree.TreeModel`, whose ``integrate`` this class inherits) to ~1e-15.
 
-Any other model with floating or planar joints (a floating joint below a moving joint or below another
-link than the root, a planar joint, two floating joints, moving joints off the floating one's sub-tree)
-keeps the :class:`~kinematics.engine.tree.TreeModel`.
+Any other model with floating or planar joints (a floating joint below a moving joint, a planar joint,
+two floating joints, a moving joint off the floating one's sub-tree) keeps the
+:class:`~kinematics.engine.tree.TreeModel`.
 """
 
 from __future__ import annotations
@@ -49,12 +51,14 @@ _REFERENCE_CODES = {Reference.WORLD: compiled.REF_WORLD, Reference.LOCAL_WORLD_A
 
 def floating_root_joint(model: RobotModel) -> Joint | None:
     """The floating joint of a model that the fast path takes, else None: the model's only multi-dof
-    joint, floating, its parent the root link, and every joint outside its sub-tree fixed."""
+    joint, floating, and every joint outside its sub-tree fixed (so its parent is the root link or a
+    link fixed to it, and links outside the sub-tree never move)."""
     multi = [j for j in model.joints if j.type in MULTI_DOF_TYPES]
-    if len(multi) != 1 or multi[0].type != "floating" or multi[0].parent != model.root:
+    if len(multi) != 1 or multi[0].type != "floating":
         return None
     joint = multi[0]
     below = _subtree_links(model, joint.child)
+    # every other joint outside the sub-tree fixed: the joint's parent is the root or fixed to it
     if any(j.moving and j is not joint and j.parent not in below for j in model.joints):
         return None
     return joint
@@ -90,7 +94,8 @@ class FloatingRootModel(TreeModel):
     :class:`TreeModel` (whose walk it keeps for reference: ``TreeModel.frames(self, Q)``).
 
     Attributes:
-        joint: the floating joint; ``qb``, ``vb`` its first q and v entries.
+        joint: the floating joint; ``qb``, ``vb`` its first q and v entries; ``origin`` the constant
+            ``T_world_parent @ joint.origin`` (4, 4).
         sub: the :class:`~kinematics.engine.poe.PoEModel` of the sub-tree below it.
     """
 
@@ -99,7 +104,6 @@ class FloatingRootModel(TreeModel):
         self.joint, self.sub = joint, sub
         slot = model.slot[joint.name]
         self.qb, self.vb = slot.q_start, slot.v_start
-        self.origin = np.ascontiguousarray(joint.origin, dtype=np.float64)
         kernel = sub.kernel
         n = kernel.n
         sm = sub.model
@@ -116,8 +120,10 @@ class FloatingRootModel(TreeModel):
         # where each link of the whole model is: its index in the sub-tree, or -1 (then a constant pose)
         sub_index = sub.model_link_index
         self._in_sub = np.array([sub_index.get(name, -1) for name in model.links], dtype=np.intp)
-        constant = TreeModel.frames(self, model.neutral[None])[0]  # links above the joint do not move
+        constant = TreeModel.frames(self, model.neutral[None])[0]  # links outside the sub-tree do not move
         self._constant = np.ascontiguousarray(constant)
+        #: ``O = T_world_parent @ origin``: the frame the joint's motion starts from
+        self.origin = np.ascontiguousarray(constant[self.model_link_index[joint.parent]] @ joint.origin)
         for a in (self._jint, self._vcol, self._in_sub, self._constant, self.q_of_sub, self.v_of_sub, self.origin):
             a.setflags(write=False)
         self._plans: dict = {}
