@@ -134,3 +134,16 @@ def test_the_floating_joint_not_first_in_q_agrees_with_pinocchio(tool, rng):
     assert compare_fk(model, Q, tool=tool).worst < AGREEMENT_TOLERANCE
     assert max(compare_jacobian(model, Q, link, tool=tool) for link in model.links) < AGREEMENT_TOLERANCE
     assert compare_velocity(model, Q, Qd, tool=tool) < AGREEMENT_TOLERANCE
+
+
+def test_batches_split_over_threads_give_the_same_bits(catalogue):
+    from kinematics.engine.parallel import FK_MIN_ROWS, threads
+
+    model = with_floating_base(catalogue.get("solo12"))
+    fast = compile_model(model)
+    Q = model.sample_configurations(2 * FK_MIN_ROWS + 3, np.random.default_rng(2))
+    with threads(1):
+        fk1, j1 = fast.fk(Q).copy(), fast.jacobian(Q, "FL_FOOT", "local").copy()
+    with threads(2):
+        np.testing.assert_array_equal(fast.fk(Q), fk1)
+        np.testing.assert_array_equal(fast.jacobian(Q, "FL_FOOT", "local"), j1)
