@@ -482,7 +482,7 @@ _WARM_UP_URDF = """<robot name="warm_up">
 
 def warm_up() -> None:
     """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, velocity, workspace, IK, rotation
-    to quaternion; compiled on the first run on a machine, a few seconds, then read from
+    to quaternion, FK and Jacobians below a floating base; compiled on the first run on a machine, a few seconds, then read from
     numba's disk cache), so that a server's first request pays for neither."""
     model = parse_urdf(_WARM_UP_URDF)
     pose = fk(model, [0.5]).poses[0, 0]
@@ -491,6 +491,9 @@ def warm_up() -> None:
     velocity(model, [0.0], [0.0])
     workspace(model, "arm", samples=8)
     ik(model, pose, link="arm")
+    # a floating base: the kernels below a floating root joint (engine/rooted.py)
+    fk(model, model_for(model, floating_base=True).neutral, floating_base=True)
+    jacobian(model, model_for(model, floating_base=True).neutral, link="arm", floating_base=True)
 
 
 def compiled_models() -> tuple[int, int]:

@@ -311,3 +311,142 @@ def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
         Ji[3, col] += mu * ax
         Ji[4, col] += mu * ay
         Ji[5, col] += mu * az
+
+
+# ---------------------------------------------------------------------- a floating root
+# A model whose only multi-dof joint is a floating joint at its root (``engine/rooted.py``): the
+# sub-tree below it is an ordinary PoE model, computed by the same frame steps with one more frame,
+# ``F[n] = O · X(q_b)`` per configuration (``O`` the joint's origin, ``X`` its motion from the 7
+# entries ``x, y, z, qx, qy, qz, qw`` at ``q[qb]``), which the sub-tree's root joints hang from
+# (their parent entry is ``n`` instead of -1) and the links no sub-tree joint moves too (``lj = n``,
+# ``D = M_L``). So every frame, pose and Jacobian column comes out in the world frame directly.
+
+
+@nb.njit(**_JIT)
+def _base_frames(Q, a, m, qb, O, Fb):
+    """``Fb[:, i] = O · X(q)`` (rows ``4r + c``) for configurations ``a .. a + m`` of Q: the rotation of
+    the quaternion ``q[qb + 3 : qb + 7]`` (x, y, z, w; Eigen's formula) and the position ``q[qb : qb + 3]``."""
+    for i in range(m):
+        row = Q[a + i]
+        px, py, pz = row[qb], row[qb + 1], row[qb + 2]
+        x, y, z, w = row[qb + 3], row[qb + 4], row[qb + 5], row[qb + 6]
+        x00 = 1 - 2 * (y * y + z * z)
+        x01 = 2 * (x * y - w * z)
+        x02 = 2 * (x * z + w * y)
+        x10 = 2 * (x * y + w * z)
+        x11 = 1 - 2 * (x * x + z * z)
+        x12 = 2 * (y * z - w * x)
+        x20 = 2 * (x * z - w * y)
+        x21 = 2 * (y * z + w * x)
+        x22 = 1 - 2 * (x * x + y * y)
+        for r in range(3):
+            o0, o1, o2, o3 = O[r, 0], O[r, 1], O[r, 2], O[r, 3]
+            Fb[4 * r, i] = o0 * x00 + o1 * x10 + o2 * x20
+            Fb[4 * r + 1, i] = o0 * x01 + o1 * x11 + o2 * x21
+            Fb[4 * r + 2, i] = o0 * x02 + o1 * x12 + o2 * x22
+            Fb[4 * r + 3, i] = o0 * px + o1 * py + o2 * pz + o3
+
+
+@nb.njit(**_JIT)
+def fk_rooted(Q, jint, jflt, order, lj, D, out, chunk, qb, O):
+    """:func:`fk` of a model on a floating root: Q (N, nq) the whole configuration (``jint``'s q
+    indices point into it), frame ``n = len(jint)`` the floating joint's child (``O · X(q[qb:qb+7])``);
+    ``lj`` may name it (``D = M_L``), or be -1 for a constant pose ``D``."""
+    N = Q.shape[0]
+    n = jint.shape[0]
+    F, W = _scratch(n + 1, chunk)
+    for a in range(0, N, chunk):
+        m = min(chunk, N - a)
+        _base_frames(Q, a, m, qb, O, F[n])
+        _chunk_frames(Q, a, m, order, jint, jflt, F, W)
+        for i in range(m):
+            _poses_row(F, i, lj, D, out[a + i])
+    return out
+
+
+@nb.njit(**_JIT)
+def jacobian_rooted(Q, jint, jflt, vcol, path, D, ref, J, chunk, qb, vb, O):
+    """:func:`jacobian` of a link of a model on a floating root (frames as :func:`fk_rooted`): J
+    (N, 6, nv), every entry written. The path's joints add their columns to ``vcol[j]`` (their
+    leader's velocity entry), the floating joint's six columns ``vb .. vb + 6`` are those of its
+    child frame ``B = F[n]`` (twist in that frame, linear first): along and about B's axes at B's
+    origin. ``path`` may be empty (a link no sub-tree joint moves: its pose is ``B · D``)."""
+    N = Q.shape[0]
+    n = jint.shape[0]
+    F, W = _scratch(n + 1, chunk)
+    for a in range(0, N, chunk):
+        m = min(chunk, N - a)
+        _base_frames(Q, a, m, qb, O, F[n])
+        _chunk_frames(Q, a, m, path, jint, jflt, F, W)
+        for i in range(m):
+            _rooted_jacobian_row(F, i, n, path, jint, jflt, vcol, D, ref, vb, J[a + i])
+    return J
+
+
+@nb.njit(inline="always", **_JIT)
+def _rooted_jacobian_row(F, i, n, path, jint, jflt, vcol, D, ref, vb, Ji):
+    """The Jacobian (6, nv) of configuration ``i`` of the chunk into ``Ji`` (see :func:`jacobian_rooted`)."""
+    for r in range(6):
+        for c in range(Ji.shape[1]):
+            Ji[r, c] = 0.0
+    k = path.shape[0]
+    Fl = F[path[k - 1]] if k > 0 else F[n]
+    ox = oy = oz = 0.0
+    if ref != REF_WORLD:
+        ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
+        oy = Fl[4, i] * D[0, 3] + Fl[5, i] * D[1, 3] + Fl[6, i] * D[2, 3] + Fl[7, i]
+        oz = Fl[8, i] * D[0, 3] + Fl[9, i] * D[1, 3] + Fl[10, i] * D[2, 3] + Fl[11, i]
+    r00 = r01 = r02 = r10 = r11 = r12 = r20 = r21 = r22 = 0.0
+    if ref == REF_LOCAL:
+        f00, f01, f02 = Fl[0, i], Fl[1, i], Fl[2, i]
+        f10, f11, f12 = Fl[4, i], Fl[5, i], Fl[6, i]
+        f20, f21, f22 = Fl[8, i], Fl[9, i], Fl[10, i]
+        r00 = f00 * D[0, 0] + f01 * D[1, 0] + f02 * D[2, 0]
+        r01 = f00 * D[0, 1] + f01 * D[1, 1] + f02 * D[2, 1]
+        r02 = f00 * D[0, 2] + f01 * D[1, 2] + f02 * D[2, 2]
+        r10 = f10 * D[0, 0] + f11 * D[1, 0] + f12 * D[2, 0]
+        r11 = f10 * D[0, 1] + f11 * D[1, 1] + f12 * D[2, 1]
+        r12 = f10 * D[0, 2] + f11 * D[1, 2] + f12 * D[2, 2]
+        r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
+        r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
+        r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
+    for jj in range(k):
+        j = path[jj]
+        vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
+        if ref == REF_LOCAL:
+            vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
+                          r02 * vx + r12 * vy + r22 * vz)
+            ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
+                          r02 * ax + r12 * ay + r22 * az)
+        col = vcol[j]
+        mu = jflt[j, J_MULT]
+        Ji[0, col] += mu * vx
+        Ji[1, col] += mu * vy
+        Ji[2, col] += mu * vz
+        Ji[3, col] += mu * ax
+        Ji[4, col] += mu * ay
+        Ji[5, col] += mu * az
+    # the floating joint: translations along B's axes, rotations about them through B's origin
+    Fb = F[n]
+    bx, by, bz = Fb[3, i], Fb[7, i], Fb[11, i]
+    for c in range(3):
+        ex, ey, ez = Fb[c, i], Fb[4 + c, i], Fb[8 + c, i]  # column c of R_world_B
+        dx, dy, dz = ox - bx, oy - by, oz - bz
+        vx, vy, vz = ey * dz - ez * dy, ez * dx - ex * dz, ex * dy - ey * dx
+        lx, ly, lz = ex, ey, ez
+        ax, ay, az = ex, ey, ez
+        if ref == REF_LOCAL:
+            lx, ly, lz = (r00 * ex + r10 * ey + r20 * ez, r01 * ex + r11 * ey + r21 * ez,
+                          r02 * ex + r12 * ey + r22 * ez)
+            vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
+                          r02 * vx + r12 * vy + r22 * vz)
+            ax, ay, az = lx, ly, lz
+        Ji[0, vb + c] = lx
+        Ji[1, vb + c] = ly
+        Ji[2, vb + c] = lz
+        Ji[0, vb + 3 + c] = vx
+        Ji[1, vb + 3 + c] = vy
+        Ji[2, vb + 3 + c] = vz
+        Ji[3, vb + 3 + c] = ax
+        Ji[4, vb + 3 + c] = ay
+        Ji[5, vb + 3 + c] = az

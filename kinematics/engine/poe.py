@@ -49,6 +49,7 @@ from ..spatial.reference import Reference
 from ..spatial.transforms import exp_screws
 from .compiled import PRISMATIC, REF_LOCAL, REF_LOCAL_WORLD_ALIGNED, REF_WORLD, REVOLUTE
 from .plans import Kernel
+from .rooted import FloatingRootModel, floating_root_joint, subtree_model
 from .tree import TreeModel
 
 
@@ -305,7 +306,14 @@ def _reference(reference: str) -> Reference:
 
 
 def _compile(model: RobotModel) -> "PoEModel | TreeModel":
-    return TreeModel(model) if model.multi_dof else PoEModel.from_model(model)
+    if not model.multi_dof:
+        return PoEModel.from_model(model)
+    joint = floating_root_joint(model)
+    if joint is None:
+        return TreeModel(model)
+    sub = subtree_model(model, joint)
+    # floating_base: the fixed-base model's own compiled form (through the cache, shared); else its own
+    return FloatingRootModel(model, joint, _compiled(sub) if sub is model.base_model else PoEModel.from_model(sub))
 
 
 _compiled = PerModel(_compile)
@@ -313,9 +321,13 @@ _compiled = PerModel(_compile)
 
 def compile_model(model: RobotModel) -> "PoEModel | TreeModel":
     """The compiled form of ``model``, built once per model object (thread-safe) and kept as long
-    as the model lives: the PoE kernels' :class:`PoEModel`, or for a model with a floating or
-    planar joint the numpy tree walk :class:`~kinematics.engine.tree.TreeModel` (same ``fk``,
-    ``jacobian``, ``velocity`` and ``link_indices``)."""
+    as the model lives: the PoE kernels' :class:`PoEModel` for a model of one-dof joints; for a
+    model whose only multi-dof joint is a floating joint with only fixed joints outside its sub-tree
+    (hanging from the root link: ``floating_base``, an MJCF freejoint of a top-level body) the same
+    kernels below that joint,
+    :class:`~kinematics.engine.rooted.FloatingRootModel`; for any other model with a floating or planar
+    joint the numpy tree walk :class:`~kinematics.engine.tree.TreeModel`. The last two have the same
+    ``fk``, ``jacobian``, ``velocity``, ``frames``, ``integrate`` and ``link_indices``."""
     return _compiled(model)
 
 

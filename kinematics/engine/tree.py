@@ -3,7 +3,10 @@
 The compiled PoE kernels (:mod:`kinematics.engine.poe`) treat one-dof screws only; a model with a
 floating or planar joint anywhere in its tree is compiled to a :class:`TreeModel` instead
 (:func:`kinematics.engine.poe.compile_model` picks it), with the same methods (``fk``,
-``jacobian``, ``velocity``, ``link_indices``). Per configuration batch, down the tree:
+``jacobian``, ``velocity``, ``link_indices``) -- except the common case of a model whose only
+multi-dof joint is a floating joint at the root (``floating_base``, MJCF freejoints), which gets the
+compiled kernels below that joint (:class:`kinematics.engine.rooted.FloatingRootModel`, a subclass
+that keeps this walk's ``integrate`` and equals it to ~1e-15). Per configuration batch, down the tree:
 
     T_world_child = T_world_parent @ origin_j @ X_j(q_j)
 

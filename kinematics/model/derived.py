@@ -25,7 +25,9 @@ class PerModel(Generic[T]):
     def __init__(self, build: Callable[[RobotModel], T]):
         self._build = build
         self._values: "weakref.WeakKeyDictionary[RobotModel, T]" = weakref.WeakKeyDictionary()
-        self._lock = threading.Lock()
+        # re-entrant: a build may ask for another model's value (the engine of a model on a floating
+        # root compiles its sub-tree's model through the same cache)
+        self._lock = threading.RLock()
         #: how many values were built (a count for monitoring; the values of dropped models included)
         self.built = 0
 

@@ -336,6 +336,7 @@ def test_warm_up_loads_every_compiled_kernel_a_request_uses():
 
     code = ("import kinematics; kinematics.warm_up(); from kinematics.engine import compiled; "
             "from kinematics.spatial import rotations; from kinematics.engine import ik; "
-            "print(*(len(f.signatures) for f in (compiled.fk, compiled.jacobian, rotations.quaternions, ik.solve)))")
+            "print(*(len(f.signatures) for f in (compiled.fk, compiled.jacobian, rotations.quaternions, ik.solve, "
+            "compiled.fk_rooted, compiled.jacobian_rooted)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
-    assert len(out.stdout.split()) == 4 and all(int(x) >= 1 for x in out.stdout.split()), out.stdout
+    assert len(out.stdout.split()) == 6 and all(int(x) >= 1 for x in out.stdout.split()), out.stdout
