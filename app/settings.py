@@ -23,6 +23,17 @@ variable                   default                     meaning
 ``KIN_XACRO_CPU_SECONDS``  10                          CPU time of one sandboxed xacro expansion
 ``KIN_XACRO_MEMORY_BYTES`` 1 GiB                       address space of that process
 ``KIN_XACRO_MAX_MACRO_CALLS`` 20,000                   macro calls in one expansion
+``KIN_REQUEST_TIMEOUT``    60                          seconds the heavy work of one request may take
+                                                       (FK / Jacobian / velocity batches, IK,
+                                                       workspace; queue time included): then it
+                                                       stops, 503 ``time-budget-exceeded``
+``KIN_MAX_HEAVY_JOBS``     2                           heavy requests computed at once per worker
+                                                       process (the others queue)
+``KIN_HEAVY_NICE``         5                           how much lower the scheduling priority of
+                                                       the heavy threads is (0: the same)
+``KIN_SHUTDOWN_TIMEOUT``   30                          seconds in-flight requests get to finish
+                                                       after SIGTERM (``kinematics serve``,
+                                                       the container); then they are cancelled
 ``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
 ``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
 ``KIN_API_KEY``            (unset)                     when set, writes need it
@@ -74,6 +85,13 @@ class Settings(BaseSettings):
     xacro_memory_bytes: int = Field(default=1024 * MIB, ge=128 * MIB,
                                     description="address space of one xacro expansion process (RLIMIT_AS)")
     xacro_max_macro_calls: int = Field(default=20_000, gt=0, description="most macro calls in one xacro expansion")
+    request_timeout: float = Field(default=60.0, gt=0, le=86_400,
+                                   description="most seconds the heavy work of one request may take (queue included); "
+                                               "then it stops with 503 time-budget-exceeded")
+    max_heavy_jobs: int = Field(default=2, ge=1, le=256, description="heavy requests computed at once per worker process")
+    heavy_nice: int = Field(default=5, ge=0, le=19, description="nice increment of the threads doing heavy work")
+    shutdown_timeout: float = Field(default=30.0, ge=0, le=3600,
+                                    description="seconds in-flight requests get to finish after SIGTERM")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     log_level: str = "info"
     api_key: SecretStr | None = None

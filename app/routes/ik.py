@@ -12,13 +12,13 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Query, Request
-from fastapi.concurrency import run_in_threadpool
 
 from kinematics import api
 from kinematics.io.poses import pose_count
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key
 from ..errors import ProblemError
+from ..heavy import parse_body, run_heavy
 from ..metrics import record_ik
 from ..npy import decode_targets, names_header
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
@@ -65,7 +65,7 @@ async def read_ik_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"target": ...}', slug="validation-error", field="target")
-    req = IKRequest.model_validate_json(body).model_dump()
+    req = await parse_body(request, lambda b: IKRequest.model_validate_json(b).model_dump(), body)
     tolerance = req.pop("tolerance")
     return {**req, "position_tolerance": tolerance["position"], "rotation_tolerance": tolerance["rotation"]}
 
@@ -95,7 +95,7 @@ async def inverse_kinematics(model_id: ModelId, options: Annotated[dict, Depends
     """
     if pose_count(options["target"]) <= INLINE_MAX_TARGETS:
         return _solve(model_id, options, request, registry, settings)
-    return await run_in_threadpool(_solve, model_id, options, request, registry, settings)
+    return await run_heavy(request, _solve, model_id, options, request, registry, settings)
 
 
 def _solve(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):

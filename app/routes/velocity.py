@@ -22,6 +22,7 @@ from kinematics.spatial.reference import Reference
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
+from ..heavy import parse_body, run_heavy
 from ..npy import decode_q
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import VELOCITY_EXAMPLES, Problem, VelocityRequest, VelocityResponse
@@ -61,7 +62,7 @@ async def read_velocity_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"q": [...], "qdot": [...]}', slug="validation-error", field="q")
-    req = VelocityRequest.model_validate_json(body)
+    req = await parse_body(request, VelocityRequest.model_validate_json, body)
     _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
     return req.model_dump()
 
@@ -99,9 +100,7 @@ async def velocity(model_id: ModelId, options: Annotated[dict, Depends(read_velo
     q = options.get("q", options.get("q_qdot"))
     if _configurations(q) <= INLINE_MAX_CONFIGURATIONS:
         return _velocity(model_id, options, request, registry, settings)
-    from fastapi.concurrency import run_in_threadpool
-
-    return await run_in_threadpool(_velocity, model_id, options, request, registry, settings)
+    return await run_heavy(request, _velocity, model_id, options, request, registry, settings)
 
 
 def _velocity(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):

@@ -1,0 +1,115 @@
+"""Heavy work off the event loop, under a time budget, stopped when its client goes away.
+
+:func:`run_heavy` runs a route's computation (large FK / Jacobian / velocity batches, IK,
+workspaces, the parsing of large JSON bodies) on the worker's *heavy* thread pool: at most
+``KIN_MAX_HEAVY_JOBS`` at a time per worker process, the others wait their turn. The light
+requests (``/health``, a single configuration) never queue behind them: they run on the event
+loop or on the default thread pool, which heavy work does not use, and the threads of the heavy
+pool run at a lower scheduling priority (``KIN_HEAVY_NICE``) so that the CPU goes first to the
+threads that answer light requests.
+
+Each heavy call gets a :class:`kinematics.api.Cancellation` with the time budget
+``KIN_REQUEST_TIMEOUT`` (counted from when the call is queued). The library checks it between
+pieces of the work (``kinematics.engine.cancel``); while the work runs, the event loop polls the
+connection every :data:`POLL_SECONDS` and cancels the token when the client has disconnected, so
+no CPU is spent on an answer nobody reads. Over its budget the request ends with 503
+``time-budget-exceeded`` (the problem names the setting and the limit); a cancelled one with 499
+(nobody reads it). When the server stops (SIGTERM) and its graceful-shutdown timeout
+(``KIN_SHUTDOWN_TIMEOUT``) runs out, uvicorn cancels the request's task and the token with it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextvars
+import logging
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+from fastapi import Request
+
+from kinematics import api
+from kinematics.errors import TimeBudgetError
+
+log = logging.getLogger("app.heavy")
+
+#: seconds between two looks at the client's connection (and at the clock) while heavy work runs
+POLL_SECONDS = 0.05
+#: the name of the time-budget setting, as errors quote it
+SETTING = "KIN_REQUEST_TIMEOUT"
+
+_lock = threading.Lock()
+_pools: dict[tuple[int, int, int], ThreadPoolExecutor] = {}
+
+#: heavy calls started and cancelled in this process (tests and metrics read them)
+STATS = {"started": 0, "cancelled": 0, "timed_out": 0}
+
+
+def _lower_priority(nice: int) -> None:
+    """Lower this thread's scheduling priority by ``nice`` (Linux: nice values are per thread)."""
+    if nice > 0 and hasattr(os, "setpriority"):
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0) + nice))
+        except OSError:  # pragma: no cover - not allowed here
+            pass
+
+
+def heavy_pool(jobs: int, nice: int) -> ThreadPoolExecutor:
+    """The process's pool of heavy threads (one per concurrent heavy job)."""
+    key = (os.getpid(), jobs, nice)
+    with _lock:
+        pool = _pools.get(key)
+        if pool is None:
+            pool = _pools[key] = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="heavy",
+                                                    initializer=_lower_priority, initargs=(nice,))
+        return pool
+
+
+def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> Any:
+    state["started"] = True
+    with api.cancellable(token):
+        token.check()  # cancelled or out of time while it waited for a thread
+        return fn(*args)
+
+
+async def run_heavy(request: Request, fn: Callable, *args: Any) -> Any:
+    """``fn(*args)`` on the heavy pool, under the request's time budget and cancelled with its client."""
+    settings = request.app.state.settings
+    token = api.Cancellation(settings.request_timeout, setting=SETTING)
+    state = {"started": False}
+    pool = heavy_pool(settings.max_heavy_jobs, settings.heavy_nice)
+    ctx = contextvars.copy_context()  # the request id and the thread count go with the work
+    future = asyncio.get_running_loop().run_in_executor(pool, ctx.run, _call, token, state, fn, args)
+    STATS["started"] += 1
+    try:
+        while True:
+            done, _ = await asyncio.wait({future}, timeout=POLL_SECONDS)
+            if done:
+                return future.result()
+            if not token.cancelled and await request.is_disconnected():
+                token.cancel("the client disconnected")
+                STATS["cancelled"] += 1
+                log.info("client disconnected: %s %s stopped", request.method, request.url.path)
+            if (token.cancelled or token.expired) and not state["started"]:
+                future.cancel()  # still queued: it will not run (if it just started, it stops at once)
+                raise token.error()
+    except TimeBudgetError:
+        STATS["timed_out"] += 1
+        raise
+    except asyncio.CancelledError:  # the server is stopping and its graceful-shutdown time is over
+        token.cancel("the server is shutting down")
+        raise
+
+
+#: JSON bodies up to this many bytes are parsed on the event loop (well under a millisecond);
+#: larger ones (a batch) are parsed as heavy work, off the loop
+INLINE_BODY_BYTES = 64 * 1024
+
+
+async def parse_body(request: Request, parse: Callable[[bytes], Any], body: bytes) -> Any:
+    """``parse(body)``: on the event loop for a small body, as heavy work for a large one."""
+    if len(body) <= INLINE_BODY_BYTES:
+        return parse(body)
+    return await run_heavy(request, parse, body)
