@@ -1,0 +1,60 @@
+"""Heavy requests: the time budget (KIN_REQUEST_TIMEOUT) answers a problem naming it; light
+requests are not affected; the settings are read from the environment."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinematics import api
+from kinematics.io.catalogue import default_catalogue
+
+PROBLEM = "application/problem+json"
+
+
+def _unreachable(n):
+    model = default_catalogue().get("ur5")
+    T = api.fk(model, model.sample_configurations(n, np.random.default_rng(0)), links=["tool0"]).poses[:, 0]
+    T[:, :3, 3] *= 3.0
+    return T.tolist()
+
+
+def test_a_request_over_its_time_budget_answers_503_naming_the_budget(make_client):
+    client = make_client(request_timeout=0.05)
+    r = client.post("/models/ur5/ik", json={"target": _unreachable(400), "link": "tool0", "restarts": 1000})
+    assert r.status_code == 503, r.text
+    assert r.headers["content-type"].startswith(PROBLEM)
+    body = r.json()
+    assert body["type"] == "urn:kinematics:problem:time-budget-exceeded"
+    assert body["setting"] == "KIN_REQUEST_TIMEOUT" and body["limit"] == 0.05
+    assert "KIN_REQUEST_TIMEOUT" in body["detail"] and "0.05 s" in body["detail"]
+    r = client.post("/models/ur5/workspace", json={"samples": 1_000_000})
+    assert r.status_code == 503 and r.json()["type"].endswith("time-budget-exceeded"), r.text
+    # light requests do not go through the budget; small heavy ones fit in it
+    assert client.get("/health").status_code == 200
+    assert client.post("/models/ur5/fk", json={"q": [0.0] * 6}).status_code == 200
+    assert client.post("/models/planar_2r/ik", json={"target": [[[1, 0, 0, 0.5], [0, 1, 0, 0.4], [0, 0, 1, 0],
+                                                                   [0, 0, 0, 1]]] * 2,
+                                                      "mode": "position"}).status_code == 200
+
+
+def test_large_json_batches_go_through_the_heavy_path(make_client):
+    from app import heavy
+
+    client = make_client()
+    before = heavy.STATS["started"]
+    Q = default_catalogue().get("ur5").sample_configurations(5000, np.random.default_rng(0))
+    r = client.post("/models/ur5/fk", json={"q": Q.tolist(), "links": ["tool0"], "format": "matrix"})
+    assert r.status_code == 200
+    np.testing.assert_array_equal(np.array([p["tool0"] for p in r.json()["poses"]]),
+                                  api.fk(default_catalogue().get("ur5"), Q, links=["tool0"]).poses[:, 0])
+    assert heavy.STATS["started"] >= before + 2  # the body's parsing and the FK
+
+
+def test_settings_from_the_environment(monkeypatch):
+    from app.settings import Settings
+
+    for name, value in (("KIN_REQUEST_TIMEOUT", "7.5"), ("KIN_MAX_HEAVY_JOBS", "3"), ("KIN_HEAVY_NICE", "0"),
+                        ("KIN_SHUTDOWN_TIMEOUT", "12")):
+        monkeypatch.setenv(name, value)
+    s = Settings()
+    assert (s.request_timeout, s.max_heavy_jobs, s.heavy_nice, s.shutdown_timeout) == (7.5, 3, 0, 12.0)
