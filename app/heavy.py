@@ -103,13 +103,97 @@ async def run_heavy(request: Request, fn: Callable, *args: Any) -> Any:
         raise
 
 
+def configure_process(settings) -> None:
+    """Process-wide settings of a worker: the GIL's switch interval (``KIN_SWITCH_INTERVAL``: how
+    long the event loop may wait for the GIL while a heavy thread runs Python code)."""
+    import sys
+
+    sys.setswitchinterval(settings.switch_interval)
+
+
 #: JSON bodies up to this many bytes are parsed on the event loop (well under a millisecond);
-#: larger ones (a batch) are parsed as heavy work, off the loop
+#: larger ones (a batch) are parsed off the loop
 INLINE_BODY_BYTES = 64 * 1024
+#: the request fields that hold a batch: decoded into arrays by the decoder process
+BATCH_FIELDS = {"q": 2, "qdot": 2, "target": 3}
+
+_decoders: dict[int, Any] = {}
 
 
-async def parse_body(request: Request, parse: Callable[[bytes], Any], body: bytes) -> Any:
-    """``parse(body)``: on the event loop for a small body, as heavy work for a large one."""
+def _quiet_child() -> None:
+    """The decoder process leaves SIGINT / SIGTERM to its worker, which shuts it down."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def decode_json(schema_name: str, body: bytes) -> tuple[str, Any]:
+    """In the decoder process: ``("ok", fields)`` of ``body`` validated by ``app.schemas.<schema_name>``
+    (``model_dump()``; the batch fields as float arrays when they are plain numeric batches), or
+    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them)."""
+    import numpy as np
+    from pydantic import ValidationError
+
+    from . import schemas
+
+    try:
+        data = getattr(schemas, schema_name).model_validate_json(body).model_dump()
+    except ValidationError as exc:
+        return "invalid", exc.errors(include_url=False)
+    for name, ndim in BATCH_FIELDS.items():
+        value = data.get(name)
+        if isinstance(value, list) and value and isinstance(value[0], list):
+            try:
+                arr = np.array(value, dtype=float)
+            except (TypeError, ValueError):  # ragged or maps: the library names what is wrong
+                continue
+            if arr.ndim == ndim:
+                data[name] = arr
+    return "ok", data
+
+
+def _decoder():
+    from concurrent.futures import ProcessPoolExecutor
+    import multiprocessing
+
+    with _lock:
+        pool = _decoders.get(os.getpid())
+        if pool is None:
+            pool = _decoders[os.getpid()] = ProcessPoolExecutor(
+                max_workers=1, mp_context=multiprocessing.get_context("spawn"), initializer=_quiet_child)
+        return pool
+
+
+def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:
+    """:func:`decode_json` in the worker's decoder process (its own GIL), here if that process is broken."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        return _decoder().submit(decode_json, schema_name, body).result()
+    except BrokenProcessPool:  # killed (out of memory?): a new one next time, this body decoded here
+        with _lock:
+            _decoders.pop(os.getpid(), None)
+        return decode_json(schema_name, body)
+
+
+async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
+    """The fields of a JSON ``body`` validated by ``schema`` (a model of :mod:`app.schemas`), as
+    ``model_dump()`` gives them: on the event loop for a small body; else decoded by the worker's
+    decoder process, as heavy work. Why a process: pydantic (like any JSON parser) holds the GIL for
+    the whole of a decode, ~90 ms for 10,000 IK targets, during which no other thread of the worker,
+    the event loop included, can run; in another process the loop goes on answering. Its batch
+    fields (``q``, ``qdot``, ``target``) may come back as float arrays, which the library reads as
+    it reads the lists."""
+    settings = request.app.state.settings
     if len(body) <= INLINE_BODY_BYTES:
-        return parse(body)
-    return await run_heavy(request, parse, body)
+        return schema.model_validate_json(body).model_dump()
+    if settings.decode_process_bytes and len(body) > settings.decode_process_bytes:
+        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body)
+    else:
+        status, data = await run_heavy(request, decode_json, schema.__name__, body)
+    if status == "invalid":
+        from fastapi.exceptions import RequestValidationError
+
+        raise RequestValidationError(data)
+    return data

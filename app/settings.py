@@ -90,6 +90,12 @@ class Settings(BaseSettings):
                                                "then it stops with 503 time-budget-exceeded")
     max_heavy_jobs: int = Field(default=2, ge=1, le=256, description="heavy requests computed at once per worker process")
     heavy_nice: int = Field(default=5, ge=0, le=19, description="nice increment of the threads doing heavy work")
+    switch_interval: float = Field(default=0.005, gt=0, le=1,
+                                   description="seconds a thread may hold the GIL while another waits for it "
+                                               "(sys.setswitchinterval of each worker)")
+    decode_process_bytes: int = Field(default=256 * 1024, ge=0,
+                                      description="JSON bodies over this many bytes are decoded in a separate "
+                                                  "process of the worker (0: never)")
     shutdown_timeout: float = Field(default=30.0, ge=0, le=3600,
                                     description="seconds in-flight requests get to finish after SIGTERM")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)

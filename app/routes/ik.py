@@ -65,7 +65,7 @@ async def read_ik_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"target": ...}', slug="validation-error", field="target")
-    req = await parse_body(request, lambda b: IKRequest.model_validate_json(b).model_dump(), body)
+    req = await parse_body(request, IKRequest, body)
     tolerance = req.pop("tolerance")
     return {**req, "position_tolerance": tolerance["position"], "rotation_tolerance": tolerance["rotation"]}
 

@@ -122,10 +122,10 @@ async def _read_call(request: Request, settings: Settings, schema, query: dict) 
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, "the body is empty: send {\"q\": [...]}", slug="validation-error", field="q")
-    req = await parse_body(request, schema.model_validate_json, body)
-    _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
-    fields = req.model_dump(exclude={"q"})
-    return Call(q=req.q, **fields)
+    fields = await parse_body(request, schema, body)
+    q = fields.pop("q")
+    _budget(settings).check_batch(_configurations(q))  # before the library reads a huge batch
+    return Call(q=q, **fields)
 
 
 async def read_fk_call(

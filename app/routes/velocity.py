@@ -62,9 +62,9 @@ async def read_velocity_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"q": [...], "qdot": [...]}', slug="validation-error", field="q")
-    req = await parse_body(request, VelocityRequest.model_validate_json, body)
-    _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
-    return req.model_dump()
+    req = await parse_body(request, VelocityRequest, body)
+    _budget(settings).check_batch(_configurations(req["q"]))  # before the library reads a huge batch
+    return req
 
 
 def _split_npy(arr: np.ndarray, dof: int) -> tuple[np.ndarray, np.ndarray]:

@@ -58,3 +58,22 @@ def test_settings_from_the_environment(monkeypatch):
         monkeypatch.setenv(name, value)
     s = Settings()
     assert (s.request_timeout, s.max_heavy_jobs, s.heavy_nice, s.shutdown_timeout) == (7.5, 3, 0, 12.0)
+
+
+def test_large_json_bodies_decoded_in_the_decoder_process_give_the_same_answers(make_client):
+    ur5 = default_catalogue().get("ur5")
+    Q = ur5.sample_configurations(3000, np.random.default_rng(2))
+    T = api.fk(ur5, Q[:500], links=["tool0"]).poses[:, 0]
+    requests = [("/models/ur5/fk", {"q": Q.tolist(), "links": "all"}),
+                ("/models/ur5/jacobian", {"q": Q.tolist(), "reference": "local"}),
+                ("/models/ur5/velocity", {"q": Q.tolist(), "qdot": Q.tolist()}),
+                ("/models/ur5/ik", {"target": T.tolist(), "link": "tool0"}),
+                # invalid: the same problem whoever decodes it
+                ("/models/ur5/fk", {"q": Q.tolist()[:-1] + [[0.1] * 5 + ["x"]]}),
+                ("/models/ur5/ik", {"target": T.tolist(), "link": "tool0", "restarts": -1})]
+    here, there = make_client(decode_process_bytes=0), make_client(decode_process_bytes=1)
+    for path, body in requests:
+        a, b = here.post(path, json=body), there.post(path, json=body)
+        assert a.status_code == b.status_code and a.status_code in (200, 422), (path, a.text[:300])
+        assert a.content == b.content or a.status_code == 422 and {**a.json(), "request_id": 0} == \
+            {**b.json(), "request_id": 0}, path
