@@ -31,6 +31,9 @@ variable                   default                     meaning
                                                        process (the others queue)
 ``KIN_HEAVY_NICE``         5                           how much lower the scheduling priority of
                                                        the heavy threads is (0: the same)
+``KIN_DECODE_PROCESS_BYTES`` 256 KiB                   JSON bodies over this are decoded in a
+                                                       per-worker process (0: never)
+``KIN_SWITCH_INTERVAL``    0.005                       the workers' GIL switch interval, seconds
 ``KIN_SHUTDOWN_TIMEOUT``   30                          seconds in-flight requests get to finish
                                                        after SIGTERM (``kinematics serve``,
                                                        the container); then they are cancelled
