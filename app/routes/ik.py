@@ -31,6 +31,9 @@ router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)]
 #: IK of at most this many targets runs on the event loop (microseconds to a millisecond each);
 #: larger batches run in the thread pool so the loop keeps serving
 INLINE_MAX_TARGETS = 1
+#: ... and of at most this many steps, (restarts + 1) x max_iterations (the defaults: 5,100, a few
+#: milliseconds at worst); one target with more may take seconds, so it runs as heavy work
+INLINE_MAX_STEPS = 51 * 100
 
 _ERRORS = {
     400: {"model": Problem, "description": "malformed body"},
@@ -93,7 +96,8 @@ async def inverse_kinematics(model_id: ModelId, options: Annotated[dict, Depends
     With `point` ([x, y, z] in the link frame) or `tool` (a pose `T_link_tool`) the targets are
     poses of that frame (a TCP without a URDF edit).
     """
-    if pose_count(options["target"]) <= INLINE_MAX_TARGETS:
+    steps = (options["restarts"] + 1) * options["max_iterations"]
+    if pose_count(options["target"]) <= INLINE_MAX_TARGETS and steps <= INLINE_MAX_STEPS:
         return _solve(model_id, options, request, registry, settings)
     return await run_heavy(request, _solve, model_id, options, request, registry, settings)
 

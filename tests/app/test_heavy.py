@@ -77,3 +77,13 @@ def test_large_json_bodies_decoded_in_the_decoder_process_give_the_same_answers(
         assert a.status_code == b.status_code and a.status_code in (200, 422), (path, a.text[:300])
         assert a.content == b.content or a.status_code == 422 and {**a.json(), "request_id": 0} == \
             {**b.json(), "request_id": 0}, path
+
+
+def test_one_ik_target_with_many_steps_is_heavy_work_under_the_budget(make_client):
+    """One target with 10,001 attempts may take seconds: not on the event loop, and under the budget."""
+    client = make_client(request_timeout=0.05)
+    target = [[1, 0, 0, 5.0], [0, 1, 0, 5.0], [0, 0, 1, 5.0], [0, 0, 0, 1]]  # 8.7 m away: out of reach
+    r = client.post("/models/ur5/ik", json={"target": target, "link": "tool0", "restarts": 10_000})
+    assert r.status_code == 503 and r.json()["type"].endswith("time-budget-exceeded"), r.text
+    r = client.post("/models/ur5/ik", json={"target": target, "link": "tool0"})  # the default work: inline
+    assert r.status_code == 200 and r.json()["success"] is False
