@@ -87,3 +87,23 @@ def test_one_ik_target_with_many_steps_is_heavy_work_under_the_budget(make_clien
     assert r.status_code == 503 and r.json()["type"].endswith("time-budget-exceeded"), r.text
     r = client.post("/models/ur5/ik", json={"target": target, "link": "tool0"})  # the default work: inline
     assert r.status_code == 200 and r.json()["success"] is False
+
+
+def test_long_answers_are_encoded_in_slices_to_the_same_bytes():
+    import orjson
+
+    from app import responses
+
+    ur5 = default_catalogue().get("ur5")
+    Q = ur5.sample_configurations(3 * responses.CHUNK_ITEMS + 5, np.random.default_rng(3))
+    fk = api.fk(ur5, Q, links=["tool0", "wrist_1_link"])
+    J = api.jacobian(ur5, Q)
+    from kinematics.io.pose_records import pose_output
+
+    for content in ({"poses": pose_output(fk.poses, fk.links, fmt, True), "out_of_limits": fk.out_of_limits(),
+                     "verification": None} for fmt in ("pose", "matrix", "compact")):
+        assert responses.dumps(content) == orjson.dumps(content, option=responses._ORJSON_OPTIONS,
+                                                        default=responses._default)
+    content = {"jacobian": J.jacobians, "nan": np.full(5000, np.nan), 7: [1] * 5000, "empty": []}
+    assert responses.dumps(content) == orjson.dumps(content, option=responses._ORJSON_OPTIONS,
+                                                    default=responses._default)
