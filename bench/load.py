@@ -8,7 +8,7 @@ each time, so that both workers are probed) and records each latency (connect to
 2. **under load**: ``--clients`` client processes (default 4) each send, continuously, IK
    batches of ``--targets`` reachable ur5 targets (default 10,000; full pose, default
    tolerances, 50 restarts allowed), in JSON and / or as ``.npy`` targets with ``.npz`` answers
-   (``--transport``).
+   (``--transport``); ``fk-json``: FK batches of 100,000 configurations in JSON (poses as JSON).
 
 It reports p50 / p99 / max of both light requests per phase, the heavy requests completed (and
 any non-200 answer), and the load average. The target of the issue: p99 < 50 ms under load.
@@ -60,10 +60,18 @@ def ik_bodies(n: int, seed: int = 0) -> dict[str, tuple[bytes, dict]]:
     T = api.fk(model, Q, links=["tool0"]).poses[:, 0]
     buf = io.BytesIO()
     np.save(buf, np.ascontiguousarray(T))
+    Qfk = model.sample_configurations(FK_BATCH, np.random.default_rng(seed + 1))
     return {
         "json": (json.dumps({"target": T.tolist(), "link": "tool0"}).encode(), {"Content-Type": "application/json"}),
         "npy": (buf.getvalue(), {"Content-Type": "application/x-npy", "Accept": "application/x-npz"}),
+        "fk-json": (json.dumps({"q": Qfk.tolist(), "format": "matrix"}).encode(), {"Content-Type": "application/json"}),
     }
+
+
+#: configurations of the FK batches of the ``fk-json`` load (JSON in, poses as JSON out)
+FK_BATCH = 100_000
+#: the path each kind of load is sent to
+LOAD_PATHS = {"json": "/models/ur5/ik", "npy": "/models/ur5/ik?link=tool0", "fk-json": "/models/ur5/fk"}
 
 
 def _load_client(port: int, body: bytes, headers: dict, path: str, stop, counts) -> None:
@@ -121,7 +129,7 @@ def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
         for transport in transports:
             body, headers = bodies[transport]
             stop, counts = ctx.Event(), ctx.Array("q", 2)
-            procs = [ctx.Process(target=_load_client, args=(port, body, headers, "/models/ur5/ik" + ("?link=tool0" if transport == "npy" else ""), stop, counts),
+            procs = [ctx.Process(target=_load_client, args=(port, body, headers, LOAD_PATHS[transport], stop, counts),
                                  daemon=True) for _ in range(clients)]
             for p in procs:
                 p.start()
@@ -135,9 +143,11 @@ def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
             stop.set()
             for p in procs:
                 p.join(120)
-            phase = f"{clients} clients x IK {targets} targets ({transport})"
+            phase = (f"{clients} clients x FK {FK_BATCH} configurations (JSON)" if transport == "fk-json" else
+                     f"{clients} clients x IK {targets} targets ({transport})")
             rows += [_row(phase, "GET /health", t["health"]), _row(phase, "POST fk (1 q)", t["fk"])]
-            heavy.append([phase, done, f"{done * targets / elapsed:,.0f}", counts[1], f"{load:.2f}"])
+            per = FK_BATCH if transport == "fk-json" else targets
+            heavy.append([phase, done, f"{done * per / elapsed:,.0f}", counts[1], f"{load:.2f}"])
     return {"rows": rows, "heavy": heavy, "load_alone": load_alone}
 
 
@@ -151,7 +161,8 @@ def run(report: Report, quick: bool = False, seconds: float | None = None, clien
                f"Each phase probes for {seconds:g} s (a new connection per request, {PROBE_INTERVAL * 1e3:g} ms "
                f"apart). Load average during the phase alone: {out['load_alone']:.2f}.")
     report.add("The heavy load during the probes",
-               table(["phase", "IK requests completed", "targets / s", "non-200 answers", "load average"],
+               table(["phase", "heavy requests completed", "targets (configurations) / s", "non-200 answers",
+                      "load average"],
                      out["heavy"]))
     return out
 
@@ -161,7 +172,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=20.0, help="probe time per phase (default 20)")
     parser.add_argument("--clients", type=int, default=4, help="heavy client processes (default 4)")
     parser.add_argument("--targets", type=int, default=10_000, help="IK targets per heavy request (default 10,000)")
-    parser.add_argument("--transport", default="npy,json", help="npy, json or both (default npy,json)")
+    parser.add_argument("--transport", default="npy,json",
+                        help="loads, comma-separated: npy, json (IK batches), fk-json (100,000-configuration FK "
+                             "batches in JSON) (default npy,json)")
     parser.add_argument("--output", help="write the report (markdown) here, e.g. bench/RESULTS_LOAD.md")
     args = parser.parse_args(argv)
     from .run_all import write_report

@@ -107,3 +107,4 @@ def test_long_answers_are_encoded_in_slices_to_the_same_bytes():
     content = {"jacobian": J.jacobians, "nan": np.full(5000, np.nan), 7: [1] * 5000, "empty": []}
     assert responses.dumps(content) == orjson.dumps(content, option=responses._ORJSON_OPTIONS,
                                                     default=responses._default)
+    assert len(responses.dump_parts(content)) > 4 and len(responses.dump_parts({"a": [1] * 10})) == 1
