@@ -117,9 +117,15 @@ def configure_process(settings) -> None:
     import gc
     import sys
 
+    global _frozen
     sys.setswitchinterval(settings.switch_interval)
-    gc.collect()
-    gc.freeze()
+    if not _frozen:  # once per process (a test process starts many apps)
+        gc.collect()
+        gc.freeze()
+        _frozen = True
+
+
+_frozen = False
 
 
 #: JSON bodies up to this many bytes are parsed on the event loop (well under a millisecond);
