@@ -74,12 +74,15 @@ def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> An
         return fn(*args)
 
 
-async def run_heavy(request: Request, fn: Callable, *args: Any) -> Any:
-    """``fn(*args)`` on the heavy pool, under the request's time budget and cancelled with its client."""
+async def run_heavy(request: Request, fn: Callable, *args: Any, waits: bool = False) -> Any:
+    """``fn(*args)`` on the heavy pool, under the request's time budget and cancelled with its client.
+
+    ``waits``: the work runs in another process (closed forms) and this thread only waits for it:
+    it runs on the loop's default executor and takes no heavy slot."""
     settings = request.app.state.settings
     token = api.Cancellation(settings.request_timeout, setting=SETTING)
     state = {"started": False}
-    pool = heavy_pool(settings.max_heavy_jobs, settings.heavy_nice)
+    pool = None if waits else heavy_pool(settings.max_heavy_jobs, settings.heavy_nice)
     ctx = contextvars.copy_context()  # the request id and the thread count go with the work
     future = asyncio.get_running_loop().run_in_executor(pool, ctx.run, _call, token, state, fn, args)
     STATS["started"] += 1

@@ -49,3 +49,22 @@ def test_xacro_expansion_is_killed_at_its_wall_clock_limit():
         expand_text(CPU_BOMB, limits=SandboxLimits(cpu_seconds=100, wall_seconds=1))
     assert time.monotonic() - t0 < 6.0
     assert _descendants() <= before
+
+
+def test_symbolic_worker_is_killed_when_its_caller_cancels():
+    """A server cancels the token when its client disconnects: the worker goes at once, not at its limit."""
+    import threading
+
+    from kinematics import api
+    from kinematics.errors import CancelledError
+
+    panda = sym.chain_from_model(default_catalogue().get("panda"), "panda_hand_tcp")
+    sym.derive(sym.chain_from_model(default_catalogue().get("planar_2r"), "tool"), timeout=60)
+    before = _descendants()
+    token = api.Cancellation()
+    threading.Timer(0.3, token.cancel, args=("the client disconnected",)).start()
+    t0 = time.monotonic()
+    with api.cancellable(token), pytest.raises(CancelledError, match="the client disconnected"):
+        sym.derive(panda, what=("transforms", "jacobian"), simplify=True, timeout=600)
+    assert time.monotonic() - t0 < 10.0  # far under its limit of 600 s
+    assert _descendants() <= before
