@@ -2,7 +2,8 @@
 
 Several client threads send, in a random order, for ``KIN_SOAK_SECONDS`` (default 60; set it
 higher for a longer run, e.g. ``KIN_SOAK_SECONDS=900``): uploads of their own URDF (each client
-one fixture), FK and Jacobians on it, and its deletion; FK batches (JSON and ``.npy``),
+one fixture), FK and Jacobians on it, and its deletion; FK batches (JSON, one large enough for the
+decoder process and an answer in parts, and ``.npy``),
 Jacobians, IK and workspaces on catalogue robots. Every request goes on a new connection, so
 both workers serve all kinds. Checked:
 
@@ -66,6 +67,9 @@ def _catalogue_requests() -> dict[str, tuple]:
         "ik": ("POST", "/models/ur5/ik", {"json": {"target": T.tolist(), "link": "tool0"}}, 200),
         "workspace": ("POST", "/models/panda/workspace", {"json": {"samples": 20_000, "random_seed": 3}}, 200),
         "fk_one": ("POST", "/models/ur5/fk", {"json": {"q": Q[0].tolist()}}, 200),
+        # a JSON body over KIN_DECODE_PROCESS_BYTES (the decoder process) and an answer sent in parts
+        "fk_big": ("POST", "/models/ur5/fk", {"json": {"q": ur5.sample_configurations(6000, rng).tolist(),
+                                                        "links": ["tool0"], "format": "compact"}}, 200),
         "health": ("GET", "/health", {}, 200),
     }
 
@@ -175,6 +179,7 @@ def test_soak_two_workers_mixed_load(tmp_path: Path):
     print(f"RSS of the workers (MiB): start {mib['start']}, after warm-up {mib['warm-up']}, end {mib['end']}")
     assert not failures, failures[:10]
     assert "Traceback" not in log, log[-3000:]
-    assert all(counts.get(name, 0) > 0 for name in ("fk", "jacobian", "ik", "workspace", "upload", "delete")), counts
+    assert all(counts.get(name, 0) > 0 for name in ("fk", "fk_big", "jacobian", "ik", "workspace", "upload", "delete")), \
+        counts
     for warm, end in zip(rss["warm-up"], rss["end"]):
         assert end <= warm * GROWTH + SLACK, mib
