@@ -41,6 +41,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "body, targets or IK work (targets x attempts x iterations) over a limit"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid target, seed or options"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 

@@ -3,8 +3,9 @@
 ``POST /models/{id}/symbolic`` and ``POST /symbolic/dh`` answer ``A_i``, ``T``, Jacobians and
 task vectors in LaTeX, text, Python or C (:func:`kinematics.api.symbolic`); the derivation runs
 in a worker process stopped after ``KIN_SYMBOLIC_TIMEOUT`` seconds (422 ``symbolic-timeout``,
-suggesting ``simplify: false``), or as soon as the client disconnects (``app.heavy``). ``POST /models/{id}/task`` gives ``r = (p, phi)`` and the
-analytic Jacobian ``J_r`` numerically (:func:`kinematics.api.task`).
+suggesting ``simplify: false``), or as soon as the client disconnects (``app.heavy``).
+``POST /models/{id}/task`` gives ``r = (p, phi)`` and the analytic Jacobian ``J_r`` numerically
+(:func:`kinematics.api.task`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ router = APIRouter(tags=["closed forms"], dependencies=[Depends(require_read_key
 _ERRORS = {
     404: {"model": Problem, "description": "unknown model or link"},
     422: {"model": Problem, "description": "invalid input, no closed form, or over the time limit (symbolic-timeout)"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 

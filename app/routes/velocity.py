@@ -40,6 +40,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "body, batch or result over the configured limit"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid joint values or velocities, limits refused, or invalid options"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 

@@ -34,6 +34,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "samples over max_workspace_samples, or the cloud over max_result_values"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid options (point, tool, voxel, a prismatic joint without limits)"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
