@@ -90,7 +90,8 @@ COPY --from=build /opt/venv /opt/venv
 ENV PATH=/opt/venv/bin:$PATH \
     KIN_DATA_DIR=/data \
     PORT=8000 \
-    WEB_CONCURRENCY=1
+    WEB_CONCURRENCY=1 \
+    KIN_SHUTDOWN_TIMEOUT=8
 VOLUME ["/data"]
 WORKDIR /home/kin
 USER kin
@@ -100,4 +101,9 @@ RUN python -c 'import kinematics; kinematics.warm_up()'
 EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=20s --retries=3 \
     CMD ["python", "-c", "import os, sys, urllib.request; r = urllib.request.urlopen('http://127.0.0.1:%s/health' % os.environ.get('PORT', '8000'), timeout=4); sys.exit(r.status != 200)"]
-CMD ["sh", "-c", "exec uvicorn app.main:app --host 0.0.0.0 --port ${PORT:-8000} --workers ${WEB_CONCURRENCY:-1}"]
+# Exec form: the server is PID 1 and gets `docker stop`'s SIGTERM itself. `python -m app` reads PORT and
+# WEB_CONCURRENCY; on SIGTERM it refuses new connections and lets requests in flight finish for up to
+# KIN_SHUTDOWN_TIMEOUT seconds (8 in this image, under `docker stop`'s default 10 s: raise both together,
+# e.g. `docker run --stop-timeout 65 -e KIN_SHUTDOWN_TIMEOUT=60`, or Kubernetes' terminationGracePeriodSeconds).
+STOPSIGNAL SIGTERM
+CMD ["python", "-m", "app", "--host", "0.0.0.0"]

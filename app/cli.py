@@ -3,6 +3,13 @@
 The command belongs to the service, not the library: it reaches the ``kinematics``
 command line through the entry-point group ``kinematics.commands`` (``pyproject.toml``),
 so the library never names the app.
+
+uvicorn runs in this process (the container's PID 1 is this process, so it gets SIGTERM).
+On SIGTERM (or SIGINT) the server stops accepting connections, lets the requests in flight
+finish for up to ``KIN_SHUTDOWN_TIMEOUT`` seconds (uvicorn's ``timeout_graceful_shutdown``;
+then their work is cancelled) and exits. With several workers the supervising process closes
+its copy of the listening socket at once, so that new connections are refused, not left
+waiting in the backlog of a socket nobody accepts on any more.
 """
 
 from __future__ import annotations
@@ -32,9 +39,10 @@ def _options(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     return p
 
 
-_DESCRIPTION = ("Serve the REST API: replaces this process with `python -m uvicorn app.main:app`. "
+_DESCRIPTION = ("Serve the REST API: runs uvicorn serving app.main:app in this process. "
                 "Settings come from environment variables (KIN_DATA_DIR, KIN_MAX_BATCH, ...); defaults of the "
-                "options below come from HOST, PORT and WEB_CONCURRENCY.")
+                "options below come from HOST, PORT and WEB_CONCURRENCY. SIGTERM lets requests in flight finish "
+                "for up to KIN_SHUTDOWN_TIMEOUT seconds (default 30).")
 
 
 def register(sub) -> None:
@@ -50,12 +58,45 @@ def run_serve(args) -> int:
         return _fail("--workers must be at least 1")
     if args.data_dir:
         os.environ["KIN_DATA_DIR"] = args.data_dir
-    argv = [sys.executable, "-m", "uvicorn", ASGI_APP,
-            "--host", args.host, "--port", str(args.port), "--workers", str(args.workers)]
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os.execv(sys.executable, argv)
-    return EXIT_OK  # pragma: no cover - execv does not return
+    from pydantic import ValidationError
+
+    from .settings import Settings
+
+    try:
+        timeout = Settings().shutdown_timeout
+    except ValidationError as exc:
+        return _fail(f"settings: {exc}")
+    return run_uvicorn(host=args.host, port=args.port, workers=args.workers, shutdown_timeout=timeout)
+
+
+def run_uvicorn(*, host: str, port: int, workers: int, shutdown_timeout: float) -> int:
+    """Serve :data:`ASGI_APP` until SIGTERM / SIGINT (see the module for the shutdown)."""
+    import uvicorn
+    from uvicorn.supervisors import Multiprocess
+
+    class Supervisor(Multiprocess):
+        """uvicorn's supervisor of several workers, which refuses new connections once told to stop."""
+
+        def _stop_listening(self) -> None:
+            for sock in self.sockets:
+                sock.close()
+
+        def handle_term(self) -> None:
+            self._stop_listening()
+            super().handle_term()
+
+        def handle_int(self) -> None:
+            self._stop_listening()
+            super().handle_int()
+
+    config = uvicorn.Config(ASGI_APP, host=host, port=port, workers=workers,
+                            timeout_graceful_shutdown=shutdown_timeout)
+    if workers == 1:
+        server = uvicorn.Server(config)
+        server.run()
+        return EXIT_OK if server.started else 3
+    Supervisor(config, sockets=[config.bind_socket()]).run()
+    return EXIT_OK
 
 
 def _fail(message: str) -> int:

@@ -27,6 +27,7 @@ from kinematics.errors import (
     AxesError,
     BasePoseError,
     BudgetError,
+    CancelledError,
     ConfigurationNormError,
     DHError,
     JointValueError,
@@ -41,6 +42,7 @@ from kinematics.errors import (
     SymbolicError,
     SymbolicTimeoutError,
     TaskError,
+    TimeBudgetError,
     UnknownLinkError,
     UnknownModelError,
     URDFError,
@@ -69,6 +71,8 @@ class RequestIdFilter(logging.Filter):
 KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (UnknownModelError, 404, "unknown-model", "Unknown model"),
     (UnknownLinkError, 404, "unknown-link", "Unknown link"),
+    (TimeBudgetError, 503, "time-budget-exceeded", "Over the time budget"),
+    (CancelledError, 499, "cancelled", "Cancelled: the client went away"),
     (BudgetError, 413, "too-large", "Content too large"),
     (ModelTooLargeError, 413, "model-too-large", "Model over the size limit"),
     (ExpansionLimitError, 413, "expansion-too-large", "xacro expansion over its limits"),
@@ -149,6 +153,8 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     detail = str(exc)
     if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
+    if isinstance(exc, TimeBudgetError):  # the time budget: the setting and its limit in seconds
+        return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
     if isinstance(exc, SymbolicTimeoutError):
         return problem(status, title, detail, slug, model=model_id, field="simplify", limit=exc.timeout)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))

@@ -23,6 +23,7 @@ from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
 from .errors import install_error_handlers
+from .heavy import configure_process
 from .middleware import BodySizeLimit, RequestContext
 from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
@@ -165,6 +166,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         data_dir = settings.resolved_data_dir()
         api.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
+        configure_process(settings)  # heavy work off the loop at a lower priority (app.heavy)
         registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
         loaded = registry.load_stored()
         app.state.registry = registry

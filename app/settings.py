@@ -23,6 +23,20 @@ variable                   default                     meaning
 ``KIN_XACRO_CPU_SECONDS``  10                          CPU time of one sandboxed xacro expansion
 ``KIN_XACRO_MEMORY_BYTES`` 1 GiB                       address space of that process
 ``KIN_XACRO_MAX_MACRO_CALLS`` 20,000                   macro calls in one expansion
+``KIN_REQUEST_TIMEOUT``    60                          seconds the heavy work of one request may take
+                                                       (FK / Jacobian / velocity batches, IK,
+                                                       workspace; queue time included): then it
+                                                       stops, 503 ``time-budget-exceeded``
+``KIN_MAX_HEAVY_JOBS``     2                           heavy requests computed at once per worker
+                                                       process (the others queue)
+``KIN_HEAVY_NICE``         5                           how much lower the scheduling priority of
+                                                       the heavy threads is (0: the same)
+``KIN_DECODE_PROCESS_BYTES`` 256 KiB                   JSON bodies over this are decoded in a
+                                                       per-worker process (0: never)
+``KIN_SWITCH_INTERVAL``    0.005                       the workers' GIL switch interval, seconds
+``KIN_SHUTDOWN_TIMEOUT``   30                          seconds in-flight requests get to finish
+                                                       after SIGTERM (``kinematics serve``,
+                                                       the container); then they are cancelled
 ``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
 ``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
 ``KIN_LOG_FORMAT``         ``text``                    ``json``: access and error logs as one JSON
@@ -79,6 +93,19 @@ class Settings(BaseSettings):
     xacro_memory_bytes: int = Field(default=1024 * MIB, ge=128 * MIB,
                                     description="address space of one xacro expansion process (RLIMIT_AS)")
     xacro_max_macro_calls: int = Field(default=20_000, gt=0, description="most macro calls in one xacro expansion")
+    request_timeout: float = Field(default=60.0, gt=0, le=86_400,
+                                   description="most seconds the heavy work of one request may take (queue included); "
+                                               "then it stops with 503 time-budget-exceeded")
+    max_heavy_jobs: int = Field(default=2, ge=1, le=256, description="heavy requests computed at once per worker process")
+    heavy_nice: int = Field(default=5, ge=0, le=19, description="nice increment of the threads doing heavy work")
+    switch_interval: float = Field(default=0.005, gt=0, le=1,
+                                   description="seconds a thread may hold the GIL while another waits for it "
+                                               "(sys.setswitchinterval of each worker)")
+    decode_process_bytes: int = Field(default=256 * 1024, ge=0,
+                                      description="JSON bodies over this many bytes are decoded in a separate "
+                                                  "process of the worker (0: never)")
+    shutdown_timeout: float = Field(default=30.0, ge=0, le=3600,
+                                    description="seconds in-flight requests get to finish after SIGTERM")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     log_level: str = "info"
     log_format: Literal["text", "json"] = Field(

@@ -52,13 +52,14 @@ def _free_port() -> int:
 
 
 @contextmanager
-def uvicorn_server(workers: int = 1):
-    """A uvicorn serving app.main:app on a free loopback port; yields its base URL."""
+def uvicorn_server(workers: int = 1, env: dict | None = None):
+    """A uvicorn serving app.main:app on a free loopback port; yields its base URL (``env``: more
+    environment variables of the server)."""
     import httpx
 
     port = _free_port()
     with tempfile.TemporaryDirectory(prefix="kin-bench-") as data_dir:
-        env = dict(os.environ, KIN_DATA_DIR=data_dir, KIN_LOG_LEVEL="warning")
+        env = dict(os.environ, KIN_DATA_DIR=data_dir, KIN_LOG_LEVEL="warning", **(env or {}))
         proc = subprocess.Popen(
             [sys.executable, "-m", "uvicorn", "app.main:app", "--host", HOST, "--port", str(port),
              "--workers", str(workers), "--log-level", "warning", "--no-access-log"],

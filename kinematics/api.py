@@ -7,6 +7,11 @@ compiled kernels, re-expresses the result in the world of the base pose, and on 
 compares it with Pinocchio. The answers are plain objects of numpy arrays; turning them
 into JSON or ``.npy`` is the caller's business.
 
+Long calls (large FK / Jacobian / velocity batches, IK, workspaces) stop early inside a
+``with cancellable(Cancellation(timeout=..., setting=...)):`` block when the token is cancelled
+(:class:`~kinematics.errors.CancelledError`) or its time budget runs out
+(:class:`~kinematics.errors.TimeBudgetError`); see :mod:`kinematics.engine.cancel`.
+
 >>> from kinematics.io import default_catalogue
 >>> ur5 = default_catalogue().get("ur5")
 >>> answer = fk(ur5, [0.0] * 6, links=["tool0"])
@@ -33,6 +38,7 @@ from .algorithms.measures import conditioning
 from .algorithms.velocity import twists_in_world, velocities as _velocities
 from .algorithms import workspace as _workspace
 from .engine.poe import compile_model, require_one_dof
+from .engine.cancel import Cancellation, cancellable  # noqa: F401 - time budgets and cancellation of the calls below
 from .errors import BudgetError, ConfigurationNormError, JointValueError, KinematicsError
 from .io.catalogue import default_catalogue
 from .io.dh_table import load_table, model_from_table

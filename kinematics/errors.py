@@ -85,6 +85,21 @@ class BudgetError(KinematicsError):
         self.limit = limit
 
 
+class CancelledError(KinematicsError):
+    """A computation stopped before its end because its caller cancelled it (a client that went
+    away; :class:`kinematics.api.Cancellation`)."""
+
+
+class TimeBudgetError(CancelledError):
+    """A computation stopped because it took longer than its time budget: ``limit`` seconds, from
+    the setting named by ``setting`` (:class:`kinematics.api.Cancellation`)."""
+
+    def __init__(self, message: str, *, setting: str, limit: float):
+        super().__init__(message)
+        self.setting = setting
+        self.limit = limit
+
+
 class PoEError(KinematicsError):
     """A product-of-exponentials description (``M``, screws ``S_i`` or ``B_i``) that is malformed."""
 

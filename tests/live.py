@@ -31,7 +31,9 @@ def free_port() -> int:
 class LiveServer:
     """``uvicorn app.main:app`` on 127.0.0.1 with ``KIN_DATA_DIR=data_dir`` (+ ``env``)."""
 
-    def __init__(self, data_dir: Path, log_path: Path, *, workers: int = 1, env: dict[str, str] | None = None):
+    def __init__(self, data_dir: Path, log_path: Path, *, workers: int = 1, env: dict[str, str] | None = None,
+                 serve: bool = False):
+        self.serve = serve  # True: `python -m app` (the product's command), else `python -m uvicorn`
         self.data_dir = Path(data_dir)
         self.log_path = Path(log_path)
         self.workers = workers
@@ -47,8 +49,8 @@ class LiveServer:
         self.port = free_port()
         env = {k: v for k, v in os.environ.items() if not k.startswith("KIN_")}
         env.update({"KIN_DATA_DIR": str(self.data_dir), "PYTHONUNBUFFERED": "1"}, **self.extra_env)
-        cmd = [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
-               "--port", str(self.port), "--workers", str(self.workers)]
+        cmd = ([sys.executable, "-m", "app"] if self.serve else [sys.executable, "-m", "uvicorn", "app.main:app"]) + [
+            "--host", "127.0.0.1", "--port", str(self.port), "--workers", str(self.workers)]
         self._log = open(self.log_path, "ab")
         self.proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=self._log, stderr=subprocess.STDOUT,
                                      start_new_session=True)

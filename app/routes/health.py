@@ -17,7 +17,7 @@ REFERENCE_VERSION = reference_name().removeprefix("pinocchio ")
 
 
 @router.get("/health", response_model=Health)
-def health(registry: RegistryDep) -> Health:
+async def health(registry: RegistryDep) -> Health:
     """Liveness: status, service version, Pinocchio version and the number of bundled models."""
     return Health(version=kinematics.__version__, pinocchio_version=REFERENCE_VERSION,
                   bundled_models=len(registry.catalogue.ids()))

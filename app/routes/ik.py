@@ -12,13 +12,13 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Query, Request
-from fastapi.concurrency import run_in_threadpool
 
 from kinematics import api
 from kinematics.io.poses import pose_count
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key
 from ..errors import ProblemError
+from ..heavy import parse_body, run_heavy
 from ..metrics import record_ik
 from ..npy import decode_targets, names_header
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
@@ -31,6 +31,9 @@ router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)]
 #: IK of at most this many targets runs on the event loop (microseconds to a millisecond each);
 #: larger batches run in the thread pool so the loop keeps serving
 INLINE_MAX_TARGETS = 1
+#: ... and of at most this many steps, (restarts + 1) x max_iterations (the defaults: 5,100, a few
+#: milliseconds at worst); one target with more may take seconds, so it runs as heavy work
+INLINE_MAX_STEPS = 51 * 100
 
 _ERRORS = {
     400: {"model": Problem, "description": "malformed body"},
@@ -38,6 +41,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "body, targets or IK work (targets x attempts x iterations) over a limit"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid target, seed or options"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
@@ -68,7 +72,7 @@ async def read_ik_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"target": ...}', slug="validation-error", field="target")
-    req = IKRequest.model_validate_json(body).model_dump()
+    req = await parse_body(request, IKRequest, body)
     tolerance = req.pop("tolerance")
     return {**req, "position_tolerance": tolerance["position"], "rotation_tolerance": tolerance["rotation"]}
 
@@ -96,9 +100,10 @@ async def inverse_kinematics(model_id: ModelId, options: Annotated[dict, Depends
     With `point` ([x, y, z] in the link frame) or `tool` (a pose `T_link_tool`) the targets are
     poses of that frame (a TCP without a URDF edit).
     """
-    if pose_count(options["target"]) <= INLINE_MAX_TARGETS:
+    steps = (options["restarts"] + 1) * options["max_iterations"]
+    if pose_count(options["target"]) <= INLINE_MAX_TARGETS and steps <= INLINE_MAX_STEPS:
         return _solve(model_id, options, request, registry, settings)
-    return await run_in_threadpool(_solve, model_id, options, request, registry, settings)
+    return await run_heavy(request, _solve, model_id, options, request, registry, settings)
 
 
 def _solve(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):

@@ -16,7 +16,6 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from fastapi import APIRouter, Depends, Query, Request
-from fastapi.concurrency import run_in_threadpool
 
 from kinematics import api
 from kinematics.io.pose_records import pose_output
@@ -24,6 +23,7 @@ from kinematics.spatial.reference import Reference
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
+from ..heavy import parse_body, run_heavy
 from ..metrics import record_configurations
 from ..npy import decode_q, names_header
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
@@ -39,6 +39,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "body, batch or result over the configured limit"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid joint values, limits refused, or invalid options"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
@@ -134,12 +135,10 @@ async def _read_call(request: Request, settings: Settings, schema, query: dict) 
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, "the body is empty: send {\"q\": [...]}", slug="validation-error", field="q")
-    req = schema.model_validate_json(body)
-    _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
-    fields = req.model_dump(exclude={"q"})
-    if "reference" in fields and "reference" not in req.model_fields_set:
-        fields["reference"] = None  # the default, world; told apart from an explicit one (representation)
-    return Call(q=req.q, **fields)
+    fields = await parse_body(request, schema, body)
+    q = fields.pop("q")
+    _budget(settings).check_batch(_configurations(q))  # before the library reads a huge batch
+    return Call(q=q, **fields)
 
 
 async def read_fk_call(
@@ -179,11 +178,12 @@ async def read_jacobian_call(
 
 
 async def _run(handler, model_id: str, call: Call, request: Request, registry, settings: Settings):
-    """``handler(...)`` on the event loop for a small request, else in the thread pool."""
+    """``handler(...)`` on the event loop for a small request, else as heavy work (``app.heavy``: off the
+    loop, under the time budget, stopped when the client disconnects)."""
     args = (model_id, call, request, registry, settings)
     if _configurations(call.q) <= INLINE_MAX_CONFIGURATIONS:
         return handler(*args)
-    return await run_in_threadpool(handler, *args)
+    return await run_heavy(request, handler, *args)
 
 
 def _names_headers(links: list[str], joint_names) -> dict[str, str]:

@@ -3,17 +3,19 @@
 ``POST /models/{id}/symbolic`` and ``POST /symbolic/dh`` answer ``A_i``, ``T``, Jacobians and
 task vectors in LaTeX, text, Python or C (:func:`kinematics.api.symbolic`); the derivation runs
 in a worker process stopped after ``KIN_SYMBOLIC_TIMEOUT`` seconds (422 ``symbolic-timeout``,
-suggesting ``simplify: false``). ``POST /models/{id}/task`` gives ``r = (p, phi)`` and the
-analytic Jacobian ``J_r`` numerically (:func:`kinematics.api.task`).
+suggesting ``simplify: false``), or as soon as the client disconnects (``app.heavy``).
+``POST /models/{id}/task`` gives ``r = (p, phi)`` and the analytic Jacobian ``J_r`` numerically
+(:func:`kinematics.api.task`).
 """
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Body, Depends
+from fastapi import APIRouter, Body, Depends, Request
 
 from kinematics import api
 
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..heavy import run_heavy
 from ..schemas import (SYMBOLIC_DH_EXAMPLES, SYMBOLIC_EXAMPLES, Problem, SymbolicDHRequest, SymbolicRequest,
                        SymbolicResponse, TaskRequest, TaskResponse)
 
@@ -22,6 +24,7 @@ router = APIRouter(tags=["closed forms"], dependencies=[Depends(require_read_key
 _ERRORS = {
     404: {"model": Problem, "description": "unknown model or link"},
     422: {"model": Problem, "description": "invalid input, no closed form, or over the time limit (symbolic-timeout)"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
@@ -38,8 +41,8 @@ def _options(req, settings) -> dict:
 
 @router.post("/models/{model_id}/symbolic", response_model=SymbolicResponse, response_model_exclude_none=True,
              responses=_ERRORS)
-def symbolic(model_id: ModelId, registry: RegistryDep, settings: SettingsDep,
-             req: SymbolicRequest = Body(openapi_examples=SYMBOLIC_EXAMPLES)) -> dict:
+async def symbolic(model_id: ModelId, request: Request, registry: RegistryDep, settings: SettingsDep,
+                   req: SymbolicRequest = Body(openapi_examples=SYMBOLIC_EXAMPLES)) -> dict:
     """Closed forms of the chain from the root to `tip`: the factors `A_i`, `T(q)`, the Jacobians
     (`local_world_aligned`, `world`; 6 x n, linear rows first) and task vectors `r(q)`, `J_r = dr/dq`.
 
@@ -49,15 +52,17 @@ def symbolic(model_id: ModelId, registry: RegistryDep, settings: SettingsDep,
     `c` (C99 functions such as `void fk(const double *q, double *T)`).
     """
     rec = registry.get(model_id)
-    answer = api.symbolic(rec.model, tip=req.tip, dh_table=rec.dh_table, **_options(req, settings))
+    answer = await run_heavy(request, lambda: api.symbolic(rec.model, tip=req.tip, dh_table=rec.dh_table,
+                                                           **_options(req, settings)), waits=True)
     return {"model": rec.id, **answer.output}
 
 
 @router.post("/symbolic/dh", response_model=SymbolicResponse, response_model_exclude_none=True, responses=_ERRORS)
-def symbolic_dh(settings: SettingsDep, req: SymbolicDHRequest = Body(openapi_examples=SYMBOLIC_DH_EXAMPLES)) -> dict:
+async def symbolic_dh(request: Request, settings: SettingsDep,
+                      req: SymbolicDHRequest = Body(openapi_examples=SYMBOLIC_DH_EXAMPLES)) -> dict:
     """Closed forms of a DH table whose entries may be parameter names or expressions (`"a1"`,
     `"-d4"`, `"pi/2"`); nothing is registered. `parameters` lists the symbols (the order of `p` in C)."""
-    answer = api.symbolic_dh(req.table, **_options(req, settings))
+    answer = await run_heavy(request, lambda: api.symbolic_dh(req.table, **_options(req, settings)), waits=True)
     return {"model": None, **answer.output}
 
 

@@ -22,6 +22,7 @@ from kinematics.spatial.reference import Reference
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
+from ..heavy import parse_body, run_heavy
 from ..npy import decode_q
 from ..responses import NPY_MEDIA_TYPE, FastJSONResponse, NpyResponse
 from ..schemas import VELOCITY_EXAMPLES, Problem, VelocityRequest, VelocityResponse
@@ -39,6 +40,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "body, batch or result over the configured limit"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid joint values or velocities, limits refused, or invalid options"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
@@ -63,9 +65,9 @@ async def read_velocity_request(
                            slug="unsupported-media-type")
     if not body:
         raise ProblemError(422, 'the body is empty: send {"q": [...], "qdot": [...]}', slug="validation-error", field="q")
-    req = VelocityRequest.model_validate_json(body)
-    _budget(settings).check_batch(_configurations(req.q))  # before the library reads a huge batch
-    return req.model_dump()
+    req = await parse_body(request, VelocityRequest, body)
+    _budget(settings).check_batch(_configurations(req["q"]))  # before the library reads a huge batch
+    return req
 
 
 def _split_npy(arr: np.ndarray, dof: int, nq: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -104,9 +106,7 @@ async def velocity(model_id: ModelId, options: Annotated[dict, Depends(read_velo
     q = options.get("q", options.get("q_qdot"))
     if _configurations(q) <= INLINE_MAX_CONFIGURATIONS:
         return _velocity(model_id, options, request, registry, settings)
-    from fastapi.concurrency import run_in_threadpool
-
-    return await run_in_threadpool(_velocity, model_id, options, request, registry, settings)
+    return await run_heavy(request, _velocity, model_id, options, request, registry, settings)
 
 
 def _velocity(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):

@@ -16,12 +16,12 @@ from typing import Annotated, Any
 
 import numpy as np
 from fastapi import APIRouter, Depends, Request
-from fastapi.concurrency import run_in_threadpool
 
 from kinematics import api
 
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
 from ..errors import ProblemError
+from ..heavy import run_heavy
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpyResponse, NpzResponse
 from ..schemas import WORKSPACE_EXAMPLES, Problem, WorkspaceRequest, WorkspaceResponse
 from ..settings import Settings
@@ -34,6 +34,7 @@ _ERRORS = {
     413: {"model": Problem, "description": "samples over max_workspace_samples, or the cloud over max_result_values"},
     415: {"model": Problem, "description": "unsupported content type"},
     422: {"model": Problem, "description": "invalid options (point, tool, voxel, a prismatic joint without limits)"},
+    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
 }
 
 
@@ -75,7 +76,7 @@ async def workspace(model_id: ModelId, options: Annotated[dict, Depends(read_wor
     `manipulability` (product of the singular values of the Jacobian). The cloud and the dexterity
     map (best manipulability per cell) come as `.npz` with `Accept: application/x-npz`.
     """
-    return await run_in_threadpool(_workspace, model_id, options, request, registry, settings)
+    return await run_heavy(request, _workspace, model_id, options, request, registry, settings)
 
 
 def _workspace(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):

@@ -1289,6 +1289,10 @@ def _worker(conn, fn, args) -> None:
         conn.close()
 
 
+#: seconds between two looks at the caller's cancellation token while the worker runs
+CANCEL_POLL_SECONDS = 0.05
+
+
 def run_with_timeout(fn: Callable, args: tuple, timeout: float | None):
     """``fn(*args)`` in a worker process killed after ``timeout`` seconds
     (:class:`~kinematics.errors.SymbolicTimeoutError`); ``timeout=None`` runs it here, unbounded.
@@ -1297,18 +1301,28 @@ def run_with_timeout(fn: Callable, args: tuple, timeout: float | None):
     costs a fork, not an import. ``fn``, ``args`` and the result travel by pickle. As with any
     use of :mod:`multiprocessing`, a script that calls this must guard its top level with
     ``if __name__ == "__main__":`` (each worker imports the main module under another name).
+    Inside a :func:`kinematics.engine.cancel.cancellable` block the worker is also killed when the
+    token is cancelled or its time budget runs out (its error is raised).
     """
     if timeout is None:
         return fn(*args)
     if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
         raise SymbolicError(f"timeout: {timeout!r} is not a positive number of seconds")
+    from ..engine import cancel
+
+    token = cancel.current()  # a caller's cancellation (a client that went away) also kills the worker
     ctx = _context()
     receiver, sender = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_worker, args=(sender, fn, args), daemon=True)
     proc.start()
     sender.close()
     try:
-        if not receiver.poll(timeout):
+        deadline = time.monotonic() + timeout
+        answered = receiver.poll(timeout if token is None else min(timeout, CANCEL_POLL_SECONDS))
+        while not answered and token is not None and time.monotonic() < deadline:
+            token.check()
+            answered = receiver.poll(max(0.0, min(deadline - time.monotonic(), CANCEL_POLL_SECONDS)))
+        if not answered:
             raise SymbolicTimeoutError(
                 f"the closed forms took longer than the time limit of {timeout:g} s; ask with simplify: false "
                 "(the expanded forms come fast), for fewer results (what), or for a shorter chain", timeout=timeout)

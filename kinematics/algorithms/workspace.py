@@ -46,6 +46,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..engine import cancel
 from ..engine.poe import compile_model
 from ..engine.workspace import MEASURE_POSE, MEASURE_POSITION, sample_frame
 from ..errors import KinematicsError
@@ -147,6 +148,7 @@ def sample_workspace(model: RobotModel, link: str, samples: int, *, tool: np.nda
     M = np.empty(samples)
     Q = np.zeros((min(CHUNK, samples), model.dof))
     for a in range(0, samples, CHUNK):
+        cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
         m = min(CHUNK, samples - a)
         Qc = Q[:m]
         if len(cols):
@@ -300,4 +302,5 @@ def workspace(model: RobotModel, link: str, samples: int = DEFAULT_SAMPLES, *, t
     ``voxel`` (None: chosen from the samples), draws from ``random_seed``."""
     P, M = sample_workspace(model, link, samples, tool=tool, measure=measure, random_seed=random_seed,
                             progress=progress)
+    cancel.check()
     return analyse(P, M, link=link, measure=measure, voxel=voxel, random_seed=random_seed)

@@ -33,6 +33,7 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
+from . import cancel
 from ..errors import KinematicsError
 
 #: the environment variable naming the thread count
@@ -131,10 +132,25 @@ def run_rows(fn, N: int, min_rows: int = FK_MIN_ROWS, piece_rows: int | None = N
     rows are cut into one contiguous range per thread (starts aligned to ``align``); with
     ``piece_rows``, into pieces of that many rows that the threads take in turn (work whose cost
     varies by row). An exception in any range is raised here, after every range has finished.
+
+    Inside a :func:`kinematics.engine.cancel.cancellable` block the rows are always cut into
+    pieces (``piece_rows``, else :data:`~kinematics.engine.cancel.CANCEL_PIECE_ROWS`), and the
+    token is checked before each piece (:class:`~kinematics.errors.CancelledError`,
+    :class:`~kinematics.errors.TimeBudgetError`); the bits of every row are the same.
     """
     t = n_threads if n_threads is not None else thread_count()
     t = min(t, N // max(1, min_rows))
-    if t <= 1:
+    token = cancel.current()
+    if token is not None:  # cancellable: pieces, and a check before each (kinematics.engine.cancel)
+        token.check()
+        if piece_rows is None:
+            piece_rows = -(-cancel.CANCEL_PIECE_ROWS // align) * align
+        if N <= piece_rows:
+            if N:
+                fn(0, N)
+            return 1
+        t = max(t, 1)
+    if t <= 1 and token is None:
         if N:
             fn(0, N)
         return 1
@@ -160,8 +176,13 @@ def run_rows(fn, N: int, min_rows: int = FK_MIN_ROWS, piece_rows: int | None = N
             k = next(counter)  # atomic under the GIL
             if k >= len(pieces):
                 return
+            if token is not None:
+                token.check()
             fn(*pieces[k])
 
+    if t <= 1:
+        worker()
+        return 1
     pool = _executor(t - 1)
     futures = [pool.submit(worker) for _ in range(t - 1)]
     try:

@@ -53,6 +53,7 @@ from . import compiled
 from . import ik as ik_kernel
 from . import velocity as velocity_kernel
 from .buffers import result_array
+from . import cancel
 from .parallel import FK_MIN_ROWS, IK_PIECE_ROWS, run_rows
 
 #: Configurations per chunk of the compiled kernels (a chunk's frames stay in L2).
@@ -228,9 +229,16 @@ class Kernel:
         if not (N and plan.order.shape[0]):
             return np.zeros((3, N, plan.lj.shape[0], 6))
         out = np.empty((3, N, plan.lj.shape[0], 6))
-        velocity_kernel.velocities(np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(Qd, dtype=np.float64),
-                                   self._jint, self._jflt, plan.order, plan.lj, with_tool(plan.pose, tool), out,
-                                   max(1, min(chunk, N)))
+        Q, Qd, D = np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(Qd, dtype=np.float64), with_tool(plan.pose, tool)
+        step = N if cancel.current() is None else cancel.CANCEL_PIECE_ROWS
+        for a in range(0, N, step):  # cancellable: pieces (into their own buffer), checked before each
+            b = min(a + step, N)
+            part = out if b - a == N else np.empty((3, b - a, plan.lj.shape[0], 6))
+            cancel.check()
+            velocity_kernel.velocities(Q[a:b], Qd[a:b], self._jint, self._jflt, plan.order, plan.lj, D, part,
+                                       max(1, min(chunk, b - a)))
+            if part is not out:
+                out[:, a:b] = part
         return out
 
     # ------------------------------------------------------------------ Jacobians

@@ -1,5 +1,6 @@
 """``kinematics serve`` (added to the library's command line by the service's entry point) and
-``python -m app``: both replace the process with uvicorn serving ``app.main:app``."""
+``python -m app``: both run uvicorn serving ``app.main:app`` in the process, with the
+graceful-shutdown timeout of ``KIN_SHUTDOWN_TIMEOUT`` (tests/app/test_shutdown.py runs it for real)."""
 
 from __future__ import annotations
 
@@ -16,19 +17,19 @@ from kinematics.cli import main
 @pytest.fixture
 def execs(monkeypatch):
     calls = []
-    monkeypatch.setattr(os, "execv", lambda path, argv: calls.append((path, argv)))
+    monkeypatch.setattr(app_cli, "run_uvicorn", lambda **kw: calls.append(kw) or 0)
     monkeypatch.delenv("KIN_DATA_DIR", raising=False)
+    monkeypatch.setenv("KIN_SHUTDOWN_TIMEOUT", "12.5")
     return calls
 
 
 @pytest.mark.parametrize("entry", ["kinematics serve", "python -m app"])
-def test_serve_execs_uvicorn(entry, execs, capsys):
+def test_serve_runs_uvicorn(entry, execs, capsys):
     args = ["--host", "0.0.0.0", "--port", "9123", "--workers", "3", "--data-dir", "/tmp/kin-x"]
     code = main(["serve", *args]) if entry == "kinematics serve" else app_cli.main(args)
     assert code == 0
-    (path, argv), = execs
-    assert path == sys.executable
-    assert argv == [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "0.0.0.0", "--port", "9123", "--workers", "3"]
+    call, = execs
+    assert call == {"host": "0.0.0.0", "port": 9123, "workers": 3, "shutdown_timeout": 12.5}
     assert os.environ["KIN_DATA_DIR"] == "/tmp/kin-x"
 
 

@@ -1,0 +1,219 @@
+"""Heavy work off the event loop, under a time budget, stopped when its client goes away.
+
+:func:`run_heavy` runs a route's computation (large FK / Jacobian / velocity batches, IK,
+workspaces, the parsing of large JSON bodies) on the worker's *heavy* thread pool: at most
+``KIN_MAX_HEAVY_JOBS`` at a time per worker process, the others wait their turn. The light
+requests (``/health``, a single configuration) never queue behind them: they run on the event
+loop or on the default thread pool, which heavy work does not use, and the threads of the heavy
+pool run at a lower scheduling priority (``KIN_HEAVY_NICE``) so that the CPU goes first to the
+threads that answer light requests.
+
+Each heavy call gets a :class:`kinematics.api.Cancellation` with the time budget
+``KIN_REQUEST_TIMEOUT`` (counted from when the call is queued). The library checks it between
+pieces of the work (``kinematics.engine.cancel``); while the work runs, the event loop polls the
+connection every :data:`POLL_SECONDS` and cancels the token when the client has disconnected, so
+no CPU is spent on an answer nobody reads. Over its budget the request ends with 503
+``time-budget-exceeded`` (the problem names the setting and the limit); a cancelled one with 499
+(nobody reads it). When the server stops (SIGTERM) and its graceful-shutdown timeout
+(``KIN_SHUTDOWN_TIMEOUT``) runs out, uvicorn cancels the request's task and the token with it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextvars
+import logging
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+from fastapi import Request
+
+from kinematics import api
+from kinematics.errors import TimeBudgetError
+
+log = logging.getLogger("app.heavy")
+
+#: seconds between two looks at the client's connection (and at the clock) while heavy work runs
+POLL_SECONDS = 0.05
+#: the name of the time-budget setting, as errors quote it
+SETTING = "KIN_REQUEST_TIMEOUT"
+
+_lock = threading.Lock()
+_pools: dict[tuple[int, int, int], ThreadPoolExecutor] = {}
+
+#: heavy calls started and cancelled in this process (tests and metrics read them)
+STATS = {"started": 0, "cancelled": 0, "timed_out": 0}
+
+
+def _lower_priority(nice: int) -> None:
+    """Lower this thread's scheduling priority by ``nice`` (Linux: nice values are per thread)."""
+    if nice > 0 and hasattr(os, "setpriority"):
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0) + nice))
+        except OSError:  # pragma: no cover - not allowed here
+            pass
+
+
+def heavy_pool(jobs: int, nice: int) -> ThreadPoolExecutor:
+    """The process's pool of heavy threads (one per concurrent heavy job)."""
+    key = (os.getpid(), jobs, nice)
+    with _lock:
+        pool = _pools.get(key)
+        if pool is None:
+            pool = _pools[key] = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="heavy",
+                                                    initializer=_lower_priority, initargs=(nice,))
+        return pool
+
+
+def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> Any:
+    state["started"] = True
+    with api.cancellable(token):
+        token.check()  # cancelled or out of time while it waited for a thread
+        return fn(*args)
+
+
+async def run_heavy(request: Request, fn: Callable, *args: Any, waits: bool = False) -> Any:
+    """``fn(*args)`` on the heavy pool, under the request's time budget and cancelled with its client.
+
+    ``waits``: the work runs in another process (closed forms) and this thread only waits for it:
+    it runs on the loop's default executor and takes no heavy slot."""
+    settings = request.app.state.settings
+    token = api.Cancellation(settings.request_timeout, setting=SETTING)
+    state = {"started": False}
+    pool = None if waits else heavy_pool(settings.max_heavy_jobs, settings.heavy_nice)
+    ctx = contextvars.copy_context()  # the request id and the thread count go with the work
+    future = asyncio.get_running_loop().run_in_executor(pool, ctx.run, _call, token, state, fn, args)
+    STATS["started"] += 1
+    try:
+        while True:
+            done, _ = await asyncio.wait({future}, timeout=POLL_SECONDS)
+            if done:
+                return future.result()
+            if not token.cancelled and await request.is_disconnected():
+                token.cancel("the client disconnected")
+                STATS["cancelled"] += 1
+                log.info("client disconnected: %s %s stopped", request.method, request.url.path)
+            if (token.cancelled or token.expired) and not state["started"]:
+                future.cancel()  # still queued: it will not run (if it just started, it stops at once)
+                raise token.error()
+    except TimeBudgetError:
+        STATS["timed_out"] += 1
+        raise
+    except asyncio.CancelledError:  # the server is stopping and its graceful-shutdown time is over
+        token.cancel("the server is shutting down")
+        raise
+
+
+def configure_process(settings) -> None:
+    """Process-wide settings of a worker, once it has started (imports done, kernels loaded).
+
+    - The GIL's switch interval (``KIN_SWITCH_INTERVAL``): how long the event loop may wait for
+      the GIL while a heavy thread runs Python code.
+    - ``gc.freeze()``: the objects of the start-up (modules, numba's and Pinocchio's tables: most
+      of the heap) move to the permanent generation, which the cyclic collector no longer
+      traverses. A full collection holds the GIL throughout; over the whole heap it took 30-130 ms
+      and ran every few hundred milliseconds while a large JSON answer was built (100,000s of
+      dicts), stalling the event loop each time; over what is left, a few milliseconds.
+    """
+    import gc
+    import sys
+
+    global _frozen
+    sys.setswitchinterval(settings.switch_interval)
+    if not _frozen:  # once per process (a test process starts many apps)
+        gc.collect()
+        gc.freeze()
+        _frozen = True
+
+
+_frozen = False
+
+
+#: JSON bodies up to this many bytes are parsed on the event loop (well under a millisecond);
+#: larger ones (a batch) are parsed off the loop
+INLINE_BODY_BYTES = 64 * 1024
+#: the request fields that hold a batch: decoded into arrays by the decoder process
+BATCH_FIELDS = {"q": 2, "qdot": 2, "target": 3}
+
+_decoders: dict[int, Any] = {}
+
+
+def _quiet_child() -> None:
+    """The decoder process leaves SIGINT / SIGTERM to its worker, which shuts it down."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def decode_json(schema_name: str, body: bytes) -> tuple[str, Any]:
+    """In the decoder process: ``("ok", fields)`` of ``body`` validated by ``app.schemas.<schema_name>``
+    (``model_dump()``; the batch fields as float arrays when they are plain numeric batches), or
+    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them)."""
+    import numpy as np
+    from pydantic import ValidationError
+
+    from . import schemas
+
+    try:
+        data = getattr(schemas, schema_name).model_validate_json(body).model_dump()
+    except ValidationError as exc:
+        return "invalid", exc.errors(include_url=False)
+    for name, ndim in BATCH_FIELDS.items():
+        value = data.get(name)
+        if isinstance(value, list) and value and isinstance(value[0], list):
+            try:
+                arr = np.array(value, dtype=float)
+            except (TypeError, ValueError):  # ragged or maps: the library names what is wrong
+                continue
+            if arr.ndim == ndim:
+                data[name] = arr
+    return "ok", data
+
+
+def _decoder():
+    from concurrent.futures import ProcessPoolExecutor
+    import multiprocessing
+
+    with _lock:
+        pool = _decoders.get(os.getpid())
+        if pool is None:
+            pool = _decoders[os.getpid()] = ProcessPoolExecutor(
+                max_workers=1, mp_context=multiprocessing.get_context("spawn"), initializer=_quiet_child)
+        return pool
+
+
+def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:
+    """:func:`decode_json` in the worker's decoder process (its own GIL), here if that process is broken."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        return _decoder().submit(decode_json, schema_name, body).result()
+    except BrokenProcessPool:  # killed (out of memory?): a new one next time, this body decoded here
+        with _lock:
+            _decoders.pop(os.getpid(), None)
+        return decode_json(schema_name, body)
+
+
+async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
+    """The fields of a JSON ``body`` validated by ``schema`` (a model of :mod:`app.schemas`), as
+    ``model_dump()`` gives them: on the event loop for a small body; else decoded by the worker's
+    decoder process, as heavy work. Why a process: pydantic (like any JSON parser) holds the GIL for
+    the whole of a decode, ~90 ms for 10,000 IK targets, during which no other thread of the worker,
+    the event loop included, can run; in another process the loop goes on answering. Its batch
+    fields (``q``, ``qdot``, ``target``) may come back as float arrays, which the library reads as
+    it reads the lists."""
+    settings = request.app.state.settings
+    if len(body) <= INLINE_BODY_BYTES:
+        return schema.model_validate_json(body).model_dump()
+    if settings.decode_process_bytes and len(body) > settings.decode_process_bytes:
+        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body)
+    else:
+        status, data = await run_heavy(request, decode_json, schema.__name__, body)
+    if status == "invalid":
+        from fastapi.exceptions import RequestValidationError
+
+        raise RequestValidationError(data)
+    return data

@@ -1,0 +1,147 @@
+"""Graceful shutdown and cancellation with a real server (``python -m app``, the product's command).
+
+- SIGTERM while a batch is in flight: that request completes with 200 and the right answer,
+  new connections are refused at once, and the process exits within the shutdown timeout;
+- a client that disconnects stops its heavy work: the worker's CPU time stops growing
+  (measured with psutil, not by a wall-clock assertion on the work).
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import socket
+import threading
+import time
+
+import httpx
+import numpy as np
+import psutil
+import pytest
+
+from kinematics import api
+from kinematics.io.catalogue import default_catalogue
+from tests.live import LiveServer
+
+pytestmark = pytest.mark.slow
+
+SHUTDOWN_TIMEOUT = 30
+
+
+def _unreachable_ik(n: int, seed: int = 0) -> dict:
+    """An IK request of ``n`` targets out of the UR5's reach: every target takes all its 1001 attempts
+    (about 10 ms of CPU a target; at most 990 targets fit the default ``max_ik_work``)."""
+    model = default_catalogue().get("ur5")
+    Q = model.sample_configurations(n, np.random.default_rng(seed))
+    T = api.fk(model, Q, links=["tool0"]).poses[:, 0]
+    T[:, :3, 3] *= 3.0
+    return {"target": T.tolist(), "link": "tool0", "restarts": 1000, "max_iterations": 100}
+
+
+def _refused(port: int) -> bool:
+    """Whether a new connection to the port is refused (or reset) at once."""
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+            s.sendall(b"GET /health HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+            return s.recv(1) == b""  # accepted then closed without an answer
+    except (ConnectionRefusedError, ConnectionResetError):
+        return True
+    except socket.timeout:  # queued in the backlog of a socket nobody accepts on: not refused
+        return False
+
+
+def _ik_timing(body: dict) -> float:
+    t0 = time.perf_counter()
+    api.ik(default_catalogue().get("ur5"), body["target"], link="tool0", restarts=body["restarts"],
+           max_iterations=body["max_iterations"])
+    return time.perf_counter() - t0
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_sigterm_lets_the_batch_in_flight_finish_and_refuses_new_connections(tmp_path, workers):
+    # enough targets for the request to last ~2 s or more here (the shutdown must find it in flight)
+    per_target = _ik_timing(_unreachable_ik(20)) / 20
+    body = _unreachable_ik(min(990, max(20, int(2.0 / max(per_target, 1e-6)))))
+    expected = api.ik(default_catalogue().get("ur5"), body["target"], link="tool0", restarts=body["restarts"],
+                      max_iterations=body["max_iterations"]).solution
+    live = LiveServer(tmp_path / "data", tmp_path / "uvicorn.log", workers=workers, serve=True,
+                      env={"KIN_SHUTDOWN_TIMEOUT": str(SHUTDOWN_TIMEOUT), "KIN_THREADS": "1"})
+    with live:
+        answer = {}
+
+        def send():
+            try:
+                answer["r"] = httpx.post(live.url + "/models/ur5/ik", json=body, timeout=120,
+                                         headers={"Connection": "close"})
+            except Exception as exc:  # noqa: BLE001 - reported below
+                answer["error"] = exc
+
+        sender = threading.Thread(target=send)
+        sender.start()
+        time.sleep(0.8)  # the request is read and its IK runs
+        assert sender.is_alive(), "the request ended before the shutdown"
+        t0 = time.monotonic()
+        live.proc.send_signal(signal.SIGTERM)
+        time.sleep(0.8)  # the supervisor looks at its signals every 0.5 s
+        assert live.proc.poll() is None, "the server exited with a request in flight"
+        assert _refused(live.port), "a new connection was not refused during the shutdown"
+        sender.join(120)
+        code = live.proc.wait(SHUTDOWN_TIMEOUT + 15)
+        elapsed = time.monotonic() - t0
+    assert "error" not in answer, answer.get("error")
+    r = answer["r"]
+    assert r.status_code == 200, r.text
+    got = r.json()
+    np.testing.assert_array_equal(np.array(got["q"]), expected.q)
+    assert got["iterations"] == expected.iterations.tolist()
+    # uvicorn re-raises the signal it handled once it is done: exit status 0 or "ended by SIGTERM"
+    assert code in (0, -signal.SIGTERM) and elapsed < SHUTDOWN_TIMEOUT, (code, elapsed, live.log()[-2000:])
+    assert "Traceback" not in live.log()
+
+
+def test_a_request_over_the_shutdown_timeout_is_cancelled_and_the_server_exits(tmp_path):
+    body = _unreachable_ik(3000)  # ~30 s of CPU: far over the shutdown timeout
+    live = LiveServer(tmp_path / "data", tmp_path / "uvicorn.log", serve=True,
+                      env={"KIN_SHUTDOWN_TIMEOUT": "1", "KIN_LOG_LEVEL": "info", "KIN_MAX_IK_WORK": str(10**9)})
+    with live:
+        sender = threading.Thread(target=lambda: _quietly(lambda: httpx.post(live.url + "/models/ur5/ik", json=body,
+                                                                              timeout=60)))
+        sender.start()
+        time.sleep(1.0)
+        t0 = time.monotonic()
+        live.proc.send_signal(signal.SIGTERM)
+        live.proc.wait(30)
+        elapsed = time.monotonic() - t0
+        sender.join(60)
+    assert elapsed < 8, (elapsed, live.log()[-2000:])  # the IK alone would take ~15 s more
+
+
+def _quietly(fn):
+    try:
+        fn()
+    except httpx.HTTPError:
+        pass
+
+
+def test_a_client_that_disconnects_stops_its_work(tmp_path):
+    body = json.dumps(_unreachable_ik(3000)).encode()  # ~30 s of CPU if it ran to its end
+    live = LiveServer(tmp_path / "data", tmp_path / "uvicorn.log", serve=True,
+                      env={"KIN_LOG_LEVEL": "info", "KIN_REQUEST_TIMEOUT": "600", "KIN_MAX_IK_WORK": str(10**9)})
+    with live:
+        server = psutil.Process(live.proc.pid)
+        with socket.create_connection(("127.0.0.1", live.port)) as s:
+            s.sendall(b"POST /models/ur5/ik HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      b"Content-Length: %d\r\n\r\n" % len(body) + body)
+            time.sleep(1.5)
+            busy = server.cpu_times()
+        # the client is gone: within a poll and a piece of IK the work stops
+        time.sleep(1.0)
+        before = server.cpu_times()
+        time.sleep(2.0)
+        after = server.cpu_times()
+        log = live.log()
+    working = busy.user + busy.system
+    spent = (after.user + after.system) - (before.user + before.system)
+    assert working > 0.5, "the IK did not run"
+    assert spent < 0.3, f"the server kept computing after the client left: {spent:.2f} s of CPU in 2 s"
+    assert "client disconnected" in log
