@@ -270,12 +270,9 @@ def jacobian(Q, jint, jflt, path, D, ref, J, chunk):
 
 
 @nb.njit(inline="always", **_JIT)
-def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
-    """Add the Jacobian (6, dof) of configuration ``i`` of the chunk's frames ``F`` into ``Ji``
-    (the link's pose is ``F[path[-1]] · D``)."""
-    k = path.shape[0]
-    Fl = F[path[k - 1]]
-    # the link's origin o and rotation R = R_world_L (F_last · D)
+def _link_frame(Fl, i, D, ref):
+    """What a Jacobian row needs of the link's pose ``Fl[:, i] · D``: its origin ``o`` (zeros for
+    ``world``) and, for ``local``, its rotation ``R`` row by row (zeros otherwise)."""
     ox = oy = oz = 0.0
     if ref != REF_WORLD:
         ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
@@ -295,6 +292,17 @@ def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
         r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
         r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
         r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
+    return ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22
+
+
+@nb.njit(inline="always", **_JIT)
+def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
+    """Add the Jacobian (6, dof) of configuration ``i`` of the chunk's frames ``F`` into ``Ji``
+    (the link's pose is ``F[path[-1]] · D``)."""
+    k = path.shape[0]
+    Fl = F[path[k - 1]]
+    # the link's origin o and rotation R = R_world_L (F_last · D)
+    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = _link_frame(Fl, i, D, ref)
     for jj in range(k):
         j = path[jj]
         vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
@@ -391,25 +399,7 @@ def _rooted_jacobian_row(F, i, n, path, jint, jflt, vcol, D, ref, vb, Ji):
             Ji[r, c] = 0.0
     k = path.shape[0]
     Fl = F[path[k - 1]] if k > 0 else F[n]
-    ox = oy = oz = 0.0
-    if ref != REF_WORLD:
-        ox = Fl[0, i] * D[0, 3] + Fl[1, i] * D[1, 3] + Fl[2, i] * D[2, 3] + Fl[3, i]
-        oy = Fl[4, i] * D[0, 3] + Fl[5, i] * D[1, 3] + Fl[6, i] * D[2, 3] + Fl[7, i]
-        oz = Fl[8, i] * D[0, 3] + Fl[9, i] * D[1, 3] + Fl[10, i] * D[2, 3] + Fl[11, i]
-    r00 = r01 = r02 = r10 = r11 = r12 = r20 = r21 = r22 = 0.0
-    if ref == REF_LOCAL:
-        f00, f01, f02 = Fl[0, i], Fl[1, i], Fl[2, i]
-        f10, f11, f12 = Fl[4, i], Fl[5, i], Fl[6, i]
-        f20, f21, f22 = Fl[8, i], Fl[9, i], Fl[10, i]
-        r00 = f00 * D[0, 0] + f01 * D[1, 0] + f02 * D[2, 0]
-        r01 = f00 * D[0, 1] + f01 * D[1, 1] + f02 * D[2, 1]
-        r02 = f00 * D[0, 2] + f01 * D[1, 2] + f02 * D[2, 2]
-        r10 = f10 * D[0, 0] + f11 * D[1, 0] + f12 * D[2, 0]
-        r11 = f10 * D[0, 1] + f11 * D[1, 1] + f12 * D[2, 1]
-        r12 = f10 * D[0, 2] + f11 * D[1, 2] + f12 * D[2, 2]
-        r20 = f20 * D[0, 0] + f21 * D[1, 0] + f22 * D[2, 0]
-        r21 = f20 * D[0, 1] + f21 * D[1, 1] + f22 * D[2, 1]
-        r22 = f20 * D[0, 2] + f21 * D[1, 2] + f22 * D[2, 2]
+    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = _link_frame(Fl, i, D, ref)
     for jj in range(k):
         j = path[jj]
         vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)

@@ -42,11 +42,11 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import KinematicsError, UnknownLinkError, did_you_mean
+from ..errors import KinematicsError
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
-from ..spatial.reference import Reference
-from ..spatial.transforms import exp_screws
+from ..spatial.reference import Reference, parse_reference
+from ..spatial.transforms import as_tool, exp_screws
 from .compiled import PRISMATIC, REF_LOCAL, REF_LOCAL_WORLD_ALIGNED, REF_WORLD, REVOLUTE
 from .plans import Kernel
 from .rooted import FloatingRootModel, floating_root_joint, subtree_model
@@ -138,21 +138,12 @@ class PoEModel:
     # ------------------------------------------------------------------ helpers
     def link_indices(self, links: Sequence[str] | None) -> np.ndarray:
         """Indices of ``links`` (None: every link); unknown names raise :class:`UnknownLinkError`."""
-        if links is None:
-            return np.arange(len(self.link_names))
-        index = self.model_link_index
-        out = []
-        for name in links:
-            if name not in index:
-                raise UnknownLinkError(f"unknown link {name!r} (model {self.model.name!r} has {len(index)} links)"
-                                       + did_you_mean(name, self.link_names, "link names"))
-            out.append(index[name])
-        return np.array(out, dtype=np.intp)
+        return self.model.link_indices(links)
 
-    @cached_property
+    @property
     def model_link_index(self) -> dict[str, int]:
         """Index of each link name in ``link_names``."""
-        return {n: i for i, n in enumerate(self.link_names)}
+        return self.model.link_index
 
     def joint_values(self, Q: np.ndarray) -> np.ndarray:
         """Values (N, n) of every moving joint (mimic joints included) from q (N, dof)."""
@@ -194,7 +185,7 @@ class PoEModel:
             n_out = len(self.link_names) if idx is None else len(idx)
             if out.shape != (Q.shape[0], n_out, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
                 raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
-        return self.kernel.fk(Q, idx, out=out, tool=_tool(tool))
+        return self.kernel.fk(Q, idx, out=out, tool=as_tool(tool))
 
     def jacobian(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD,
                  tool: np.ndarray | None = None) -> np.ndarray:
@@ -205,12 +196,12 @@ class PoEModel:
         ``local_world_aligned`` and ``world`` rows move their reference point with it, ``local``
         also turns into its axes).
         """
-        reference = _reference(reference)
+        reference = parse_reference(reference)
         li = int(self.link_indices([link])[0])
         Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
-        return self.kernel.jacobian(Q, li, reference, tool=_tool(tool))
+        return self.kernel.jacobian(Q, li, reference, tool=as_tool(tool))
 
     def velocity(self, Q: np.ndarray, Qd: np.ndarray, links: Sequence[str] | None = None,
                  tool: np.ndarray | None = None) -> dict[Reference, np.ndarray]:
@@ -225,7 +216,7 @@ class PoEModel:
         if Q.ndim != 2 or Q.shape[1] != self.dof or Qd.shape != Q.shape:
             raise KinematicsError(f"q and qdot must have shape (N, {self.dof}), got {Q.shape} and {Qd.shape}")
         idx = None if links is None else self.link_indices(links)
-        V = self.kernel.velocity(Q, Qd, idx, tool=_tool(tool))
+        V = self.kernel.velocity(Q, Qd, idx, tool=as_tool(tool))
         return {ref: V[code] for ref, code in _VELOCITY_CODES.items()}
 
     # ------------------------------------------------------------------ FK (reference)
@@ -252,7 +243,7 @@ class PoEModel:
 
     def jacobian_reference(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD) -> np.ndarray:
         """Reference Jacobian (N, 6, dof) of ``link``, linear rows first, in ``reference``."""
-        reference = _reference(reference)
+        reference = parse_reference(reference)
         li = int(self.link_indices([link])[0])
         Q = np.asarray(Q, dtype=float)
         N = Q.shape[0]
@@ -287,22 +278,6 @@ _VELOCITY_CODES = {Reference.WORLD: REF_WORLD, Reference.LOCAL: REF_LOCAL,
                    Reference.LOCAL_WORLD_ALIGNED: REF_LOCAL_WORLD_ALIGNED}
 
 
-def _tool(tool) -> np.ndarray | None:
-    """A tool offset ``T_link_tool`` as a (4, 4) float64 array (None stays None)."""
-    if tool is None:
-        return None
-    T = np.asarray(tool, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise KinematicsError(f"a tool offset must be a 4x4 transform, got shape {T.shape}")
-    return T
-
-
-def _reference(reference: str) -> Reference:
-    try:
-        return Reference(reference)
-    except ValueError:
-        expected = ", ".join(r.value for r in Reference)
-        raise KinematicsError(f"unknown reference {reference!r}; expected one of {expected}") from None
 
 
 def _compile(model: RobotModel) -> "PoEModel | TreeModel":

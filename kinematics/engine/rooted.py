@@ -38,12 +38,13 @@ import numpy as np
 
 from ..errors import KinematicsError
 from ..model.robot import MULTI_DOF_TYPES, Joint, RobotModel
-from ..spatial.reference import Reference
+from ..spatial.reference import Reference, parse_reference
+from ..spatial.transforms import as_tool
 from . import compiled
 from .buffers import result_array
 from .parallel import FK_MIN_ROWS, run_rows
 from .plans import CHUNK_SIZE, PLAN_CACHE_SIZE, with_tool
-from .tree import TreeModel, _reference, _tool
+from .tree import TreeModel
 
 _REFERENCE_CODES = {Reference.WORLD: compiled.REF_WORLD, Reference.LOCAL_WORLD_ALIGNED: compiled.REF_LOCAL_WORLD_ALIGNED,
                     Reference.LOCAL: compiled.REF_LOCAL}
@@ -192,7 +193,7 @@ class FloatingRootModel(TreeModel):
         res = result_array((N, n_out, 4, 4)) if target is None else target
         if N:
             Q = np.ascontiguousarray(Q)
-            D, out3, c = with_tool(D, _tool(tool) if tool is not None else None), res.reshape(N, n_out, 16), max(1, min(CHUNK_SIZE, N))
+            D, out3, c = with_tool(D, as_tool(tool) if tool is not None else None), res.reshape(N, n_out, 16), max(1, min(CHUNK_SIZE, N))
             run_rows(lambda a, b: compiled.fk_rooted(Q[a:b], self._jint, self._jflt, order, lj, D, out3[a:b], c,
                                                      self.qb, self.origin), N, FK_MIN_ROWS, align=CHUNK_SIZE)
         if out is not None and target is None:
@@ -206,18 +207,18 @@ class FloatingRootModel(TreeModel):
         """Jacobian (N, 6, nv) of ``link``, linear rows first, in ``reference`` (``tool``: of the frame at
         that offset, Pinocchio's frame semantics). ``frames`` is accepted for the tree walk's signature
         (the compiled kernel recomputes the few frames it needs)."""
-        reference = _reference(reference)
+        reference = parse_reference(reference)
         li = int(self.link_indices([link])[0])
         Q = self._check_q(Q)
         N = Q.shape[0]
         if self._in_sub[li] < 0:  # the root link or a link fixed to it: nothing moves it
             if tool is not None:
-                _tool(tool)
+                as_tool(tool)
             return np.zeros((N, 6, self.dof))
         J = result_array((N, 6, self.dof))
         path, D = self._path_plan(li)
         if tool is not None:
-            D = with_tool(D, _tool(tool))
+            D = with_tool(D, as_tool(tool))
         if N:
             Q = np.ascontiguousarray(Q)
             code, c = _REFERENCE_CODES[reference], max(1, min(CHUNK_SIZE, N))

@@ -36,6 +36,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import KinematicsError
+from ..spatial.reference import parse_reference
 from . import compiled as _c
 from .compiled import _JIT, REVOLUTE, SINCOS_MAX_ARG, _jacobian_row, _poses_row
 from .plans import _REFERENCE_CODES, with_tool
@@ -233,10 +234,9 @@ def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray
     """``f(q, out=None)``: the Jacobian (6, dof) of ``link`` in ``reference`` (linear rows first)
     for one configuration ``q``; as :func:`fk_function` otherwise."""
     poe = _compiled(poe)
-    from .poe import _reference
 
     kernel = poe.kernel
-    ref = _REFERENCE_CODES[_reference(reference)]
+    ref = _REFERENCE_CODES[parse_reference(reference)]
     li = int(poe.link_indices([link])[0])
     path, D = kernel.path_plan(li)
     D = with_tool(D, None if tool is None else np.asarray(tool, dtype=np.float64))

@@ -33,15 +33,15 @@ added.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 from typing import Sequence
 
 import numpy as np
 
-from ..errors import KinematicsError, UnknownLinkError, did_you_mean
+from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.lie import matrix_to_quaternion_xyzw, quaternion_xyzw_to_matrix, se3_exp
-from ..spatial.reference import Reference
+from ..spatial.reference import Reference, parse_reference
+from ..spatial.transforms import as_tool
 
 
 def _motion_subspace(kind: str, axis: np.ndarray) -> np.ndarray:
@@ -129,22 +129,13 @@ class TreeModel:
     def nq(self) -> int:
         return self.model.nq
 
-    @cached_property
+    @property
     def model_link_index(self) -> dict[str, int]:
-        return {n: i for i, n in enumerate(self.link_names)}
+        return self.model.link_index
 
     def link_indices(self, links: Sequence[str] | None) -> np.ndarray:
         """Indices of ``links`` (None: every link); unknown names raise :class:`UnknownLinkError`."""
-        if links is None:
-            return np.arange(len(self.link_names))
-        index = self.model_link_index
-        out = []
-        for name in links:
-            if name not in index:
-                raise UnknownLinkError(f"unknown link {name!r} (model {self.model.name!r} has {len(index)} links)"
-                                       + did_you_mean(name, self.link_names, "link names"))
-            out.append(index[name])
-        return np.array(out, dtype=np.intp)
+        return self.model.link_indices(links)
 
     def _check_q(self, Q) -> np.ndarray:
         Q = np.asarray(Q, dtype=float)
@@ -198,7 +189,7 @@ class TreeModel:
         idx = self.link_indices(links)
         T = self.frames(Q)[:, idx]
         if tool is not None:
-            T = T @ _tool(tool)
+            T = T @ as_tool(tool)
         if out is not None:
             if out.shape != T.shape or out.dtype != np.float64:
                 raise KinematicsError(f"out must be a float64 array of shape {T.shape}")
@@ -226,13 +217,13 @@ class TreeModel:
                  tool: np.ndarray | None = None, frames: np.ndarray | None = None) -> np.ndarray:
         """Jacobian (N, 6, nv) of ``link``, linear rows first, in ``reference`` (``tool``: of the frame at
         that offset, Pinocchio's frame semantics). ``frames``: the walk's poses of ``Q`` if at hand."""
-        reference = _reference(reference)
+        reference = parse_reference(reference)
         li = int(self.link_indices([link])[0])
         T = self.frames(Q) if frames is None else frames
         J = self._space_jacobian(T, li)
         if reference == Reference.WORLD:
             return J
-        F = T[:, li] if tool is None else T[:, li] @ _tool(tool)
+        F = T[:, li] if tool is None else T[:, li] @ as_tool(tool)
         return _from_world(J, F, reference)
 
     def velocity(self, Q: np.ndarray, Qd: np.ndarray, links: Sequence[str] | None = None,
@@ -255,7 +246,7 @@ class TreeModel:
                 k = cols.shape[2]
                 vj = Qd[:, st.v:st.v + k] * (st.multiplier if k == 1 else 1.0)
                 Vw[:, st.child] += (cols @ vj[:, :, None])[:, :, 0]
-        F = T[:, idx] if tool is None else T[:, idx] @ _tool(tool)
+        F = T[:, idx] if tool is None else T[:, idx] @ as_tool(tool)
         world = Vw[:, idx]
         lin = world[..., :3] + np.cross(world[..., 3:], F[..., :3, 3])
         lwa = np.concatenate([lin, world[..., 3:]], axis=-1)
@@ -310,16 +301,3 @@ def _from_world(J: np.ndarray, F: np.ndarray, reference: Reference) -> np.ndarra
     return np.concatenate([Rt @ J[:, :3, :], Rt @ J[:, 3:, :]], axis=1)
 
 
-def _tool(tool) -> np.ndarray:
-    T = np.asarray(tool, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise KinematicsError(f"a tool offset must be a 4x4 transform, got shape {T.shape}")
-    return T
-
-
-def _reference(reference: str) -> Reference:
-    try:
-        return Reference(reference)
-    except ValueError:
-        expected = ", ".join(r.value for r in Reference)
-        raise KinematicsError(f"unknown reference {reference!r}; expected one of {expected}") from None

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
+
+from ..errors import UnknownLinkError, did_you_mean
 
 #: Joint types with one degree of freedom (one entry of q and of v).
 ONE_DOF_TYPES = frozenset({"revolute", "continuous", "prismatic"})
@@ -228,6 +230,25 @@ class RobotModel:
     def leaf_links(self) -> tuple[str, ...]:
         """Links with no child joint, in document order."""
         return tuple(name for name in self.links if not self.children[name])
+
+    @cached_property
+    def link_index(self) -> dict[str, int]:
+        """Index of each link name in ``links``."""
+        return {name: i for i, name in enumerate(self.links)}
+
+    def link_indices(self, links: Sequence[str] | None) -> np.ndarray:
+        """Indices of ``links`` in ``links`` order (None: every link); an unknown name raises
+        :class:`~kinematics.errors.UnknownLinkError` with the closest names."""
+        if links is None:
+            return np.arange(len(self.links))
+        index = self.link_index
+        out = []
+        for name in links:
+            if name not in index:
+                raise UnknownLinkError(f"unknown link {name!r} (model {self.name!r} has {len(index)} links)"
+                                       + did_you_mean(name, self.links, "link names"))
+            out.append(index[name])
+        return np.array(out, dtype=np.intp)
 
     @cached_property
     def q_index(self) -> dict[str, int]:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+from ..errors import KinematicsError
+
 
 class Reference(StrEnum):
     """A Jacobian's reference frame; compares equal to its string value (``"world"``, ...)."""
@@ -24,3 +26,12 @@ class Reference(StrEnum):
 
 #: The reference names, in the order the documentation lists them.
 REFERENCES: tuple[str, ...] = tuple(r.value for r in Reference)
+
+
+def parse_reference(value: str) -> Reference:
+    """``value`` as a :class:`Reference`; anything else is a :class:`~kinematics.errors.KinematicsError`
+    listing the three names."""
+    try:
+        return Reference(value)
+    except ValueError:
+        raise KinematicsError(f"unknown reference {value!r}; expected one of {', '.join(REFERENCES)}") from None

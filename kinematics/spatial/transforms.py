@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import KinematicsError
 from ..tolerances import RIGID_TOLERANCE
 from .rotations import matrix_to_quaternion, matrix_to_rpy, skew
 
@@ -88,3 +89,14 @@ def pose_components(T: np.ndarray) -> dict[str, np.ndarray]:
         "quaternion": matrix_to_quaternion(T[..., :3, :3]),
         "rpy": matrix_to_rpy(T[..., :3, :3]),
     }
+
+
+def as_tool(tool) -> np.ndarray | None:
+    """A tool offset ``T_link_tool`` as a (4, 4) float64 array (None stays None); another shape is a
+    :class:`~kinematics.errors.KinematicsError`."""
+    if tool is None:
+        return None
+    T = np.asarray(tool, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise KinematicsError(f"a tool offset must be a 4x4 transform, got shape {T.shape}")
+    return T
