@@ -64,3 +64,19 @@ def test_seeds_are_validated_and_normalized():
     with pytest.raises(ConfigurationNormError, match="seed: .*joint 'base_free'"):
         api.ik(model, T, link="lower", seed=seed.tolist())
     assert api.ik(model, T, link="lower", seed=seed.tolist(), normalize=True).solution.success[0]
+
+
+def test_each_target_alone_gets_exactly_its_batch_answer(catalogue):
+    """Restarts are drawn per target: a target solved alone gives its batch row bit for bit
+    (few iterations, so that restarts and failures are part of it)."""
+    ur5 = catalogue.get("ur5")
+    fb = api.model_for(ur5, floating_base=True)
+    Q = fb.sample_configurations(6, np.random.default_rng(3))
+    T = compile_model(fb).fk(Q, ["tool0"])[:, 0]
+    options = dict(link="tool0", floating_base=True, restarts=3, random_seed=7, max_iterations=4)
+    batch = api.ik(ur5, T, **options).solution
+    assert batch.iterations.max() > 4 and not batch.success.all()  # restarts ran, and one target failed
+    for k in range(len(T)):
+        one = api.ik(ur5, T[k:k + 1], **options).solution
+        np.testing.assert_array_equal(one.q[0], batch.q[k])
+        assert one.success[0] == batch.success[k] and one.iterations[0] == batch.iterations[k]
