@@ -44,7 +44,7 @@ from . import compiled
 from .buffers import result_array
 from .parallel import FK_MIN_ROWS, run_rows
 from .plans import CHUNK_SIZE, PLAN_CACHE_SIZE, with_tool
-from .tree import TreeModel
+from .tree import TreeModel, twists_at
 
 _REFERENCE_CODES = {Reference.WORLD: compiled.REF_WORLD, Reference.LOCAL_WORLD_ALIGNED: compiled.REF_LOCAL_WORLD_ALIGNED,
                     Reference.LOCAL: compiled.REF_LOCAL}
@@ -253,9 +253,4 @@ class FloatingRootModel(TreeModel):
         ang = (R @ W[..., 3:, None])[..., 0]
         lin = (R @ W[..., :3, None])[..., 0] + np.cross(p, ang)
         world = np.concatenate([lin, ang], axis=-1)
-        F = self.fk(Q, None if links is None else list(links), tool=tool)
-        lin = world[..., :3] + np.cross(world[..., 3:], F[..., :3, 3])
-        lwa = np.concatenate([lin, world[..., 3:]], axis=-1)
-        Rt = np.swapaxes(F[..., :3, :3], -1, -2)
-        local = np.concatenate([(Rt @ lin[..., None])[..., 0], (Rt @ world[..., 3:, None])[..., 0]], axis=-1)
-        return {Reference.WORLD: world, Reference.LOCAL: local, Reference.LOCAL_WORLD_ALIGNED: lwa}
+        return twists_at(world, self.fk(Q, None if links is None else list(links), tool=tool))

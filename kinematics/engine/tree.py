@@ -41,6 +41,7 @@ from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.lie import matrix_to_quaternion_xyzw, quaternion_xyzw_to_matrix, se3_exp
 from ..spatial.reference import Reference, parse_reference
+from ..spatial.rotations import skew
 from ..spatial.transforms import as_tool
 
 
@@ -152,16 +153,14 @@ class TreeModel:
         t = step.type
         if t in ("revolute", "continuous"):
             theta = step.multiplier * Q[:, step.q] + step.offset
-            w = step.axis
-            K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+            K = skew(step.axis)
             X[:, :3, :3] = np.eye(3) + np.sin(theta)[:, None, None] * K + (1 - np.cos(theta))[:, None, None] * (K @ K)
         elif t == "prismatic":
             theta = step.multiplier * Q[:, step.q] + step.offset
             X[:, :3, :3] = np.eye(3)
             X[:, :3, 3] = theta[:, None] * step.axis
         elif t == "floating":
-            X[:, :3, :3] = quaternion_xyzw_to_matrix(Q[:, step.q + 3:step.q + 7])
-            X[:, :3, 3] = Q[:, step.q:step.q + 3]
+            X[:] = floating_pose(Q[:, step.q:step.q + 7])
         elif t == "planar":
             c, s = Q[:, step.q + 2], Q[:, step.q + 3]
             X[:, 0, 0], X[:, 0, 1], X[:, 1, 0], X[:, 1, 1] = c, -s, s, c
@@ -247,13 +246,7 @@ class TreeModel:
                 vj = Qd[:, st.v:st.v + k] * (st.multiplier if k == 1 else 1.0)
                 Vw[:, st.child] += (cols @ vj[:, :, None])[:, :, 0]
         F = T[:, idx] if tool is None else T[:, idx] @ as_tool(tool)
-        world = Vw[:, idx]
-        lin = world[..., :3] + np.cross(world[..., 3:], F[..., :3, 3])
-        lwa = np.concatenate([lin, world[..., 3:]], axis=-1)
-        Rt = np.swapaxes(F[..., :3, :3], -1, -2)
-        local = np.concatenate([(Rt @ lin[..., None])[..., 0], (Rt @ world[..., 3:, None])[..., 0]], axis=-1)
-        return {Reference.WORLD: np.ascontiguousarray(world), Reference.LOCAL: local,
-                Reference.LOCAL_WORLD_ALIGNED: lwa}
+        return twists_at(np.ascontiguousarray(Vw[:, idx]), F)
 
     # ------------------------------------------------------------------ the configuration manifold
     def integrate(self, Q: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -265,11 +258,7 @@ class TreeModel:
             if s.nq == 1:
                 Q[:, s.q_start] += V[:, s.v_start]
             elif s.type == "floating":
-                M = np.zeros((Q.shape[0], 4, 4))
-                M[:, :3, :3] = quaternion_xyzw_to_matrix(Q[:, s.q_start + 3:s.q_start + 7])
-                M[:, :3, 3] = Q[:, s.q_start:s.q_start + 3]
-                M[:, 3, 3] = 1.0
-                M = M @ se3_exp(V[:, s.v_slice])
+                M = floating_pose(Q[:, s.q_slice]) @ se3_exp(V[:, s.v_slice])
                 quat = matrix_to_quaternion_xyzw(M[:, :3, :3])
                 old = Q[:, s.q_start + 3:s.q_start + 7]
                 quat *= np.where(np.sum(quat * old, axis=1) < 0, -1.0, 1.0)[:, None]  # keep the sign continuous
@@ -288,6 +277,26 @@ class TreeModel:
                 Q[:, s.q_start], Q[:, s.q_start + 1] = x, y
                 Q[:, s.q_start + 2], Q[:, s.q_start + 3] = c2 / norm, s2 / norm
         return Q
+
+
+def floating_pose(q7: np.ndarray) -> np.ndarray:
+    """``(R(qx, qy, qz, qw), (x, y, z))`` (N, 4, 4) of a floating joint's values (N, 7)."""
+    X = np.zeros(q7.shape[:-1] + (4, 4))
+    X[..., :3, :3] = quaternion_xyzw_to_matrix(q7[..., 3:7])
+    X[..., :3, 3] = q7[..., :3]
+    X[..., 3, 3] = 1.0
+    return X
+
+
+def twists_at(world: np.ndarray, F: np.ndarray) -> dict[Reference, np.ndarray]:
+    """World twists (N, L, 6) (linear first) of bodies whose frames are F (N, L, 4, 4), in the three
+    references: ``world`` as given, ``local_world_aligned`` (reference point moved to F's origin),
+    ``local`` (also F's axes)."""
+    lin = world[..., :3] + np.cross(world[..., 3:], F[..., :3, 3])
+    lwa = np.concatenate([lin, world[..., 3:]], axis=-1)
+    Rt = np.swapaxes(F[..., :3, :3], -1, -2)
+    local = np.concatenate([(Rt @ lin[..., None])[..., 0], (Rt @ world[..., 3:, None])[..., 0]], axis=-1)
+    return {Reference.WORLD: world, Reference.LOCAL: local, Reference.LOCAL_WORLD_ALIGNED: lwa}
 
 
 def _from_world(J: np.ndarray, F: np.ndarray, reference: Reference) -> np.ndarray:
