@@ -203,7 +203,7 @@ def joint_batch(model: RobotModel, q: Any, budget: Budget = UNBOUNDED,
             arr = None
         if arr is not None and arr.ndim == 2:
             q = arr
-    Q, is_batch = as_batch(model, q, normalize) if normalize else as_batch(model, q)
+    Q, is_batch = as_batch(model, q, normalize)
     budget.check_batch(Q.shape[0])
     if Q.shape[0] == 0:
         raise JointValueError("q has no configuration")

@@ -32,6 +32,27 @@ def api_data_dir(tmp_path) -> Path:
 
 
 @pytest.fixture
+def get_with_a_bug(api_data_dir):
+    """``get(path, headers=None)`` on a service whose registry raises a RuntimeError ("simulated
+    bug"): a real bug, as the 500 handler meets it."""
+    from fastapi.testclient import TestClient
+
+    from app.main import create_app
+    from app.settings import Settings
+
+    def get(path: str, headers: dict | None = None):
+        app = create_app(Settings(data_dir=api_data_dir))
+        with TestClient(app, raise_server_exceptions=False) as c:
+            def broken(model_id):
+                raise RuntimeError("simulated bug")
+
+            app.state.registry.get = broken
+            return c.get(path, headers=headers)
+
+    return get
+
+
+@pytest.fixture
 def make_client(api_data_dir):
     """Factory: ``make_client(**settings)`` -> a started TestClient on ``api_data_dir``.
 

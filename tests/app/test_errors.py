@@ -147,19 +147,8 @@ def test_openapi_examples_work_as_is(api_client):
     assert checked >= 7
 
 
-def test_a_real_bug_is_a_logged_problem_500(api_data_dir, caplog):
-    from fastapi.testclient import TestClient
-
-    from app.main import create_app
-    from app.settings import Settings
-
-    app = create_app(Settings(data_dir=api_data_dir))
-    with TestClient(app, raise_server_exceptions=False) as c:
-        def broken(model_id):
-            raise RuntimeError("simulated bug")
-
-        app.state.registry.get = broken
-        r = c.get("/models/ur5")
+def test_a_real_bug_is_a_logged_problem_500(get_with_a_bug, caplog):
+    r = get_with_a_bug("/models/ur5")
     assert_problem(r, 500)
     assert "simulated bug" not in r.text  # internals are logged, not sent
     assert "simulated bug" in caplog.text

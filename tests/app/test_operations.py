@@ -123,19 +123,8 @@ def test_unsafe_request_id_is_replaced(api_client):
     assert re.fullmatch(r"[0-9a-f]{32}", r.headers["x-request-id"])
 
 
-def test_request_id_in_500_and_its_log(api_data_dir, caplog):
-    from fastapi.testclient import TestClient
-
-    from app.main import create_app
-    from app.settings import Settings
-
-    app = create_app(Settings(data_dir=api_data_dir))
-    with TestClient(app, raise_server_exceptions=False) as c:
-        def broken(model_id):
-            raise RuntimeError("simulated bug")
-
-        app.state.registry.get = broken
-        r = c.get("/models/ur5", headers={"X-Request-ID": "trace-500"})
+def test_request_id_in_500_and_its_log(get_with_a_bug, caplog):
+    r = get_with_a_bug("/models/ur5", headers={"X-Request-ID": "trace-500"})
     assert r.status_code == 500
     assert r.headers["x-request-id"] == "trace-500" and r.json()["request_id"] == "trace-500"
     assert "trace-500" in caplog.text
