@@ -1136,17 +1136,21 @@ function defaultLink(info) {
   return best;
 }
 
-function buildLinkList(info) {
-  const list = $("link-list");
-  list.replaceChildren();
+// A <select> filled with the model's links (label(link): the text shown), the default link selected.
+function fillLinkOptions(select, info, label = (link) => link) {
+  select.replaceChildren();
   for (const link of info.links) {
     const opt = document.createElement("option");
     opt.value = link;
-    opt.textContent = link;
-    list.appendChild(opt);
+    opt.textContent = label(link);
+    select.appendChild(opt);
   }
+  select.value = defaultLink(info);
+}
+
+function buildLinkList(info) {
+  fillLinkOptions($("link-list"), info);
   state.selectedLink = defaultLink(info);
-  list.value = state.selectedLink;
 }
 
 $("link-list").addEventListener("change", () => {
@@ -1337,15 +1341,8 @@ function closedFormProblem(err) {
 }
 
 function fillClosedFormTips(info) {
-  const select = $("cf-tip");
-  select.replaceChildren();
-  for (const link of info.links) {
-    const opt = document.createElement("option");
-    opt.value = link;
-    opt.textContent = info.leaf_links && info.leaf_links.includes(link) ? `${link} (leaf)` : link;
-    select.appendChild(opt);
-  }
-  select.value = defaultLink(info);
+  fillLinkOptions($("cf-tip"), info,
+                  (link) => (info.leaf_links && info.leaf_links.includes(link) ? `${link} (leaf)` : link));
   $("cf-output").replaceChildren();
   $("cf-status").textContent = "";
   $("cf-status").className = "";
