@@ -674,3 +674,72 @@ def model_from_description(kind: str, description: Any, *, max_links: int | None
 def description_urdf(kind: str, description: Any) -> str:
     """The URDF text a description becomes (dict or file path, as :func:`model_from_description`)."""
     return model_from_description(kind, description)[0].urdf
+
+
+# ---------------------------------------------------------------------------- calibration
+def calibration_measurements(model: RobotModel, measurements: Any = None, *, csv: str | bytes | None = None,
+                             budget: Budget = UNBOUNDED) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``(Q (N, dof), positions (N, 3) or None, poses (N, 4, 4) or None)`` of a request's measurements:
+    a list of ``{"q": .., "position": [x, y, z]}`` or ``{"q": .., "pose": <pose>}`` (q as a vector or a
+    name map; every entry of one kind), or a CSV text (:mod:`kinematics.io.measurements`)."""
+    from .errors import CalibrationError
+    from .io.measurements import parse_measurements_csv
+
+    if csv is not None:
+        m = parse_measurements_csv(csv, model.joint_names)
+        budget.check_batch(len(m.q))
+        return m.q, m.positions, m.poses
+    if not isinstance(measurements, (list, tuple)) or not measurements:
+        raise CalibrationError("measurements: give a non-empty list of {q, position} or {q, pose}")
+    kinds = set()
+    for i, m in enumerate(measurements):
+        if not isinstance(m, dict) or "q" not in m or len({"position", "pose"} & set(m)) != 1:
+            raise CalibrationError(f"measurements[{i}]: expected {{\"q\", \"position\"}} or {{\"q\", \"pose\"}}")
+        kinds.add("position" if "position" in m else "pose")
+    if len(kinds) > 1:
+        raise CalibrationError("measurements: every measurement must be a position, or every one a pose (not a mix)")
+    try:
+        Q, _ = joint_batch(model, [m["q"] for m in measurements], budget)
+    except JointValueError as exc:
+        raise CalibrationError(f"measurements: {exc}", field="q") from None
+    if "position" in kinds:
+        try:
+            P = np.array([m["position"] for m in measurements], dtype=float)
+        except (TypeError, ValueError):
+            raise CalibrationError("measurements: every position must be [x, y, z] (numbers)") from None
+        if P.shape != (len(Q), 3):
+            raise CalibrationError(f"measurements: every position must be [x, y, z]; got shape {P.shape}")
+        return Q, P, None
+    T, _ = pose_list([m["pose"] for m in measurements], "measurements.pose")
+    return Q, None, T
+
+
+def calibrate(model: RobotModel, link: str, measurements: Any = None, *, csv: str | bytes | None = None,
+              point: Any = None, parameters: str = "full", base: Any = "estimate", tool: str = "estimate",
+              loss: str = "linear", holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
+              name: str | None = None, budget: Budget = UNBOUNDED):
+    """Calibrate ``model``'s chain to ``link`` from measurements (see :func:`calibration_measurements`):
+    a :class:`~kinematics.algorithms.calibration.Calibration` whose ``model`` is the calibrated model.
+
+    ``base``: ``"estimate"``, ``"fixed"`` (the device frame is the root frame) or a pose ``T_device_root``
+    (fixed there); ``point``: the marker point's guess on the link (positions)."""
+    from .algorithms.calibration import calibrate as _calibrate
+
+    require_one_dof(model, "calibration").link_indices([link])
+    Q, P, T = calibration_measurements(model, measurements, csv=csv, budget=budget)
+    if not isinstance(base, str):
+        base = base_poses(base, 1)[0]
+    guess = None if point is None else tool_offset(point=point)[:3, 3]
+    return _calibrate(model, link, Q, positions=P, poses=T, point=guess, parameters=parameters, base=base, tool=tool,
+                      loss=loss, holdout=holdout, random_seed=random_seed, rotation_weight=rotation_weight, name=name)
+
+
+def calibration_poses(model: RobotModel, link: str, n: int, *, measure: str = "position", random_seed: int = 0,
+                      point: Any = None, parameters: str = "full"):
+    """``n`` configurations within the limits that best determine the calibration of ``link`` (D-optimal):
+    a :class:`~kinematics.algorithms.calibration.PoseChoice`."""
+    from .algorithms.calibration import select_poses
+
+    require_one_dof(model, "calibration").link_indices([link])
+    guess = (0.05, 0.05, 0.05) if point is None else tool_offset(point=point)[:3, 3]
+    return select_poses(model, link, n, measure, random_seed, point=guess, parameters=parameters)
