@@ -103,7 +103,7 @@ class CalibrationResponse(BaseModel):
 class CalibrationPosesRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     link: str
-    n: Integer = Field(ge=1, le=10_000, description="how many configurations")
+    n: Integer = Field(ge=1, le=1000, description="how many configurations")
     measure: Literal["position", "pose"] = "position"
     random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1)
     point: Union[Point, None] = Field(default=None, description="where the marker will be on the link (default "

@@ -34,7 +34,7 @@ from ...io.urdf import parse_urdf
 from ...model.robot import RobotModel
 from ...spatial.transforms import make_transform
 from .errors_model import ErrorModel
-from .identification import Identification, identify, residual_and_jacobian
+from .identification import identify, residual_and_jacobian, singular_values
 from .urdf_out import corrected_urdf
 
 #: false-alarm probability of the outlier test, per measurement
@@ -298,11 +298,11 @@ def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, po
     # 5. statistics
     dof_res = max(len(r) - len(sel), 1)
     s2 = float(r @ r) / dof_res
-    U, sv, Vt = np.linalg.svd(Js, full_matrices=False)
+    sv, Vt = singular_values(Js, vectors=True)
     cov = (Vt.T / sv ** 2) @ Vt * s2
     sigma = np.sqrt(np.diag(cov))
     norms = np.linalg.norm(Js, axis=0)
-    sv_eq = np.linalg.svd(Js / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    sv_eq = singular_values(Js / np.where(norms > 0, norms, 1.0))
     cond = float(sv_eq[0] / sv_eq[-1]) if sv_eq[-1] > 0 else float("inf")
     params = [{"name": em.names[i], "value": float(x[i]), "sigma": float(sigma[k])} for k, i in enumerate(sel)]
 

@@ -54,6 +54,16 @@ def residual_and_jacobian(em: ErrorModel, Q: np.ndarray, x: np.ndarray, measured
     return r, np.concatenate([cols[:, :3, :], J_rot], axis=1)
 
 
+def singular_values(A: np.ndarray, vectors: bool = False):
+    """Singular values (descending) of a tall A (m, p), through its QR factor (several times faster
+    than an SVD of A itself); with ``vectors`` also ``Vt`` (p, p)."""
+    R = np.linalg.qr(A, mode="r") if A.shape[0] > A.shape[1] else A
+    if vectors:
+        _, s, Vt = np.linalg.svd(R, full_matrices=False)
+        return s, Vt
+    return np.linalg.svd(R, compute_uv=False)
+
+
 @dataclass(frozen=True)
 class Identification:
     """What the data determine.
@@ -97,7 +107,7 @@ def identify(em: ErrorModel, J: np.ndarray, measure: str) -> Identification:
     scale = norms.max() if norms.size and norms.max() > 0 else 1.0
     live = norms > RANK_TOLERANCE * scale
     A = np.where(live, J / np.where(live, norms, 1.0), 0.0)  # unit columns (dead ones zero)
-    s = np.linalg.svd(A, compute_uv=False)
+    s = singular_values(A)
     threshold = RANK_TOLERANCE * max(s[0] if s.size else 1.0, 1.0)
     rank = int(np.sum(s > threshold))
     chosen: list[int] = []
@@ -120,11 +130,12 @@ def identify(em: ErrorModel, J: np.ndarray, measure: str) -> Identification:
                 if live[i] and len(chosen) < rank and _rank(A[:, chosen + [i]], threshold) > len(chosen):
                     chosen.append(i)
     selected = np.array(sorted(chosen), dtype=np.intp)
-    reasons = []
-    for i in range(J.shape[1]):
-        if i in chosen:
-            continue
-        reasons.append({"name": em.names[i], "reason": _reason(em, A, live, chosen, i, measure)})
+    others = [i for i in range(J.shape[1]) if i not in chosen]
+    # every other column as a combination of the chosen ones (one least-squares solve for all)
+    coefs = np.linalg.lstsq(A[:, chosen], A[:, others], rcond=None)[0] if chosen and others else None
+    reasons = [{"name": em.names[i], "reason": _reason(em, live, chosen, i, measure,
+                                                       None if coefs is None else coefs[:, k])}
+               for k, i in enumerate(others)]
     cond = float(s[0] / s[rank - 1]) if rank else float("inf")
     return Identification(rank, selected, reasons, cond, s)
 
@@ -132,14 +143,13 @@ def identify(em: ErrorModel, J: np.ndarray, measure: str) -> Identification:
 def _rank(A: np.ndarray, threshold: float) -> int:
     if A.shape[1] == 0:
         return 0
-    return int(np.sum(np.linalg.svd(A, compute_uv=False) > threshold))
+    return int(np.sum(singular_values(A) > threshold))
 
 
-def _reason(em: ErrorModel, A, live, chosen, i, measure) -> str:
+def _reason(em: ErrorModel, live, chosen, i, measure, coef) -> str:
     p = em.parameters[i]
-    if not live[i]:
+    if not live[i] or coef is None:
         return "unobservable from positions" if measure == "position" else "does not move the measured frame"
-    coef, *_ = np.linalg.lstsq(A[:, chosen], A[:, i], rcond=None)
     big = np.abs(coef) > 1e-6 * max(np.abs(coef).max(), 1e-300)
     groups = {em.parameters[chosen[k]].group for k in np.flatnonzero(big)}
     names = [em.parameters[chosen[k]].name for k in np.flatnonzero(big)]

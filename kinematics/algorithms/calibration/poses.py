@@ -5,7 +5,7 @@ limits, and chooses ``n`` of them that maximise the D-optimality of the identifi
 Jacobian -- ``log det(J^T J)`` over the identifiable combinations, columns scaled to the pool's
 (the volume of the parameters' confidence ellipsoid shrinks as it grows) -- greedily (each step
 adds the candidate that raises it most, by the matrix determinant lemma), then by exchange
-(swap a chosen configuration for a candidate while that raises it). The answer carries that
+(swap a chosen configuration for a candidate while that raises it; two passes). The answer carries that
 measure for the choice and, for comparison, for ``n`` random configurations of the pool.
 """
 
@@ -18,7 +18,11 @@ import numpy as np
 from ...errors import CalibrationError
 from ...model.robot import RobotModel
 from .errors_model import ErrorModel
-from .identification import identify
+from .identification import identify, singular_values
+
+
+#: the largest n; the exchange passes after the greedy choice
+MAX_POSES, EXCHANGE_PASSES = 1000, 2
 
 
 @dataclass(frozen=True)
@@ -41,7 +45,7 @@ def select_poses(model: RobotModel, link: str, n: int, measure: str = "position"
     """``n`` configurations within the limits that best determine the calibration of ``link``.
 
     ``point``: where the marker is expected on the link (a point off the last joint's axis, so
-    that its motion is seen); ``candidates``: the pool size (default ``max(20 n, 400)``).
+    that its motion is seen); ``candidates``: the pool size (default ``10 n``, at least 300, at most 3000).
     """
     if measure not in ("position", "pose"):
         raise CalibrationError(f"unknown measure {measure!r}; expected 'position' or 'pose'", field="measure")
@@ -49,7 +53,9 @@ def select_poses(model: RobotModel, link: str, n: int, measure: str = "position"
         raise CalibrationError(f"n must be a positive number of configurations, got {n!r}", field="n")
     em = ErrorModel(model, link, measure, parameters, "estimate", "estimate", point=np.asarray(point, dtype=float))
     rng = np.random.default_rng(random_seed)
-    K = int(candidates or max(20 * n, 400))
+    if n > MAX_POSES:
+        raise CalibrationError(f"n = {n}: choose at most {MAX_POSES} configurations", field="n")
+    K = int(candidates or min(max(10 * n, 300), 3000))
     if K < n:
         raise CalibrationError(f"the pool of {K} candidates is smaller than n = {n}", field="candidates")
     pool = model.sample_configurations(K, rng)
@@ -62,41 +68,80 @@ def select_poses(model: RobotModel, link: str, n: int, measure: str = "position"
     sel = ident.selected
     scale = np.linalg.norm(J[:, :, sel].reshape(-1, len(sel)), axis=0) / np.sqrt(K)
     G = J[:, :, sel] / scale  # (K, d, r), each column of unit mean square over the pool
-    r = len(sel)
-    ridge = 1e-9 * np.eye(r)
-    chosen: list[int] = []
-    A = ridge.copy()
-    for _ in range(n):  # greedy: det(A + G_k^T G_k) = det(A) det(I + G_k A^-1 G_k^T)
-        Ainv = np.linalg.inv(A)
-        M = np.eye(d) + G @ Ainv @ np.swapaxes(G, 1, 2)
-        gain = np.linalg.slogdet(M)[1]
-        gain[chosen] = -np.inf
-        k = int(np.argmax(gain))
-        chosen.append(k)
-        A = A + G[k].T @ G[k]
-    for _ in range(3):  # exchange passes
-        improved = False
-        for slot in range(n):
-            rest = A - G[chosen[slot]].T @ G[chosen[slot]]
-            Rinv = np.linalg.inv(rest + ridge)
-            gain = np.linalg.slogdet(np.eye(d) + G @ Rinv @ np.swapaxes(G, 1, 2))[1]
-            gain[chosen] = -np.inf
-            k = int(np.argmax(gain))
-            current = np.linalg.slogdet(np.eye(d) + G[chosen[slot]] @ Rinv @ G[chosen[slot]].T)[1]
-            if gain[k] > current + 1e-9:
-                chosen[slot] = k
-                A = rest + G[k].T @ G[k]
-                improved = True
-        if not improved:
-            break
+    chosen = _d_optimal(G, n)
     rnd = rng.choice(K, size=n, replace=False)
     return PoseChoice(pool[chosen], *_measure(G[chosen]), ident.rank if n * d >= ident.rank else n * d,
                       *_measure(G[rnd]))
+
+
+class _Information:
+    """``A = ridge I + sum G_k^T G_k`` over a chosen set, with ``A^-1``, ``H = G A^-1`` and
+    ``P = G A^-1 G^T`` for every candidate kept current by rank-d (Woodbury) updates and rebuilt
+    every :data:`REFRESH` updates so that rounding does not pile up."""
+
+    REFRESH = 16
+
+    def __init__(self, G: np.ndarray, ridge: float = 1e-6):
+        self.G = G
+        self.A = ridge * np.eye(G.shape[2])
+        self.updates = 0
+        self._rebuild()
+
+    def _rebuild(self):
+        self.Ainv = np.linalg.inv(self.A)
+        self.H = self.G @ self.Ainv
+        self.P = self.H @ np.swapaxes(self.G, 1, 2)
+
+    def gains(self) -> np.ndarray:
+        """``log det(A + G_k^T G_k) - log det(A)`` for every candidate k (determinant lemma)."""
+        return np.linalg.slogdet(np.eye(self.G.shape[1]) + self.P)[1]
+
+    def update(self, k: int, sign: float = 1.0) -> None:
+        """``A <- A + sign G_k^T G_k``."""
+        Gk = self.G[k]
+        self.A = self.A + sign * Gk.T @ Gk
+        self.updates += 1
+        if self.updates % self.REFRESH == 0:
+            self._rebuild()
+            return
+        Hk = self.H[k].copy()
+        Sinv = np.linalg.inv(np.eye(Gk.shape[0]) + sign * Hk @ Gk.T)
+        CS = (self.H @ Gk.T) @ Sinv  # (K, d, d)
+        self.P = self.P - sign * CS @ np.swapaxes(self.H @ Gk.T, 1, 2)
+        self.H = self.H - sign * CS @ Hk
+        self.Ainv = self.Ainv - sign * Hk.T @ Sinv @ Hk
+
+
+def _d_optimal(G: np.ndarray, n: int) -> list[int]:
+    """Indices of n rows of G (K, d, r) of large ``log det sum G_k^T G_k``: greedy, then exchange."""
+    info = _Information(G)
+    chosen: list[int] = []
+    for _ in range(n):
+        gain = info.gains()
+        gain[chosen] = -np.inf
+        k = int(np.argmax(gain))
+        chosen.append(k)
+        info.update(k)
+    for _ in range(EXCHANGE_PASSES):
+        improved = False
+        for slot in range(n):
+            info.update(chosen[slot], -1.0)  # the information without this configuration
+            gain = info.gains()
+            current = gain[chosen[slot]]
+            gain[chosen] = -np.inf
+            k = int(np.argmax(gain))
+            if gain[k] > current + 1e-9:
+                chosen[slot] = k
+                improved = True
+            info.update(chosen[slot])
+        if not improved:
+            break
+    return chosen
 
 
 def _measure(G: np.ndarray) -> tuple[float, float]:
     Js = G.reshape(-1, G.shape[-1])
     sign, logdet = np.linalg.slogdet(Js.T @ Js)
     norms = np.linalg.norm(Js, axis=0)
-    s = np.linalg.svd(Js / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    s = singular_values(Js / np.where(norms > 0, norms, 1.0))
     return (float(logdet) if sign > 0 else float("-inf")), (float(s[0] / s[-1]) if s[-1] > 0 else float("inf"))
