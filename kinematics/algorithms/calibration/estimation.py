@@ -210,6 +210,8 @@ def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, po
     if not (np.isfinite(rotation_weight) and rotation_weight > 0):
         raise CalibrationError("rotation_weight must be a positive length (metres per radian)", field="rotation_weight")
     Q, data, measure = check_measurements(model, q, positions, poses)
+    if not any(j.moving for j in model.path_joints(link)):
+        raise CalibrationError(f"no moving joint between the root and {link!r}: nothing to calibrate", field="link")
     N = len(Q)
     rng = np.random.default_rng(random_seed)
     n_hold = int(round(float(holdout) * N))
@@ -243,8 +245,6 @@ def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, po
         tool_rotation = _project_rotation(np.sum(np.swapaxes(link_R, 1, 2) @ data[fit, :3, :3], axis=0))
     em = ErrorModel(model, link, measure, parameters, base_mode, tool, R0=B0[:3, :3], t0=B0[:3, 3],
                     point=T_tool0[:3, 3], tool_rotation=tool_rotation)
-    if not em.joints:
-        raise CalibrationError(f"no moving joint between the root and {link!r}: nothing to calibrate", field="link")
     x0 = em.x0.copy()
     meas_fit = data[fit]
     d = 3 if measure == "position" else 6

@@ -171,3 +171,32 @@ def test_an_unknown_link_is_refused(catalogue):
     model, link, truth, Q, data = scenario(catalogue, "ur5", "tool0", "position")
     with pytest.raises(UnknownLinkError):
         calibrate(model, "nope", Q, positions=data)
+
+
+@pytest.mark.parametrize("link,count", [("right_finger", (17, 20)), ("left_tip", (15, 18))])
+def test_a_tree_with_mimic_prismatic_continuous_and_oblique_axes(link, count):
+    """The fixture's right branch: a revolute, a continuous, a prismatic and a mimic joint (driven by
+    the other branch's elbow); the left: oblique axes and a fixed tip."""
+    from tests.paths import FIXTURES
+    from kinematics.io.urdf import load_urdf
+    from kinematics.verify.pinocchio import compare_fk
+
+    model = load_urdf(FIXTURES / "tree_mimic.urdf")
+    for measure, want in zip(("position", "pose"), count):
+        rng = np.random.default_rng(0)
+        truth = plant(model, link, measure, rng)
+        Q = model.sample_configurations(100, rng)
+        data = truth.measure(Q, SIGMA, rng)
+        kw = {"positions": data} if measure == "position" else {"poses": data}
+        cal = calibrate(model, link, Q, holdout=0.4, **kw)
+        assert cal.identifiable == want
+        err = fk_prediction(cal, Q)[:, :3, 3] - truth.predict(Q)[:, :3, 3]
+        assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 1.25 * SIGMA * np.sqrt(want / 60)
+        dev = compare_fk(cal.model, Q[:5], [link])
+        assert max(dev.max_position_error, dev.max_rotation_error) < 1e-9
+
+
+def test_a_link_without_moving_joints_is_refused(catalogue):
+    model, link, truth, Q, data = scenario(catalogue, "ur5", "tool0", "position")
+    with pytest.raises(CalibrationError, match="no moving joint"):
+        calibrate(model, model.root, Q, positions=data)
