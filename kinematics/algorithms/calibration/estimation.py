@@ -176,7 +176,10 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
         bad = np.flatnonzero((err > 1e-6) | (np.linalg.det(R) < 0))
         if bad.size:
             raise CalibrationError(f"measurement {int(bad[0])}: the measured pose's rotation is not a rotation")
-    if Q.shape[0] < 3 or np.ptp(Q, axis=0).max() < 1e-9:
+    if Q.shape[0] < 3:
+        raise CalibrationError(f"{Q.shape[0]} measurement(s) are too few: a calibration needs dozens "
+                               "(more equations than the parameter combinations they determine)")
+    if np.ptp(Q, axis=0).max() < 1e-9:
         raise CalibrationError(f"the {Q.shape[0]} measurements are all at the same configuration: "
                                "they determine nothing (the arm must move between measurements)")
     return Q, data, measure
