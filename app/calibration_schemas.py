@@ -6,7 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .schemas import BasePose, Integer, JointMap, JointVector, Number, Point
+from .schemas import BasePose, BasePositionQuaternion, Integer, JointMap, JointVector, Number, Point
 
 _MEASURE_Q = "the joint values of the measurement: a vector in the model's joint order or a {joint: value} map"
 
@@ -48,18 +48,6 @@ class CalibrationRequest(BaseModel):
     name: Union[str, None] = Field(default=None, max_length=200, description="the calibrated model's name")
 
 
-class Quaternion(BaseModel):
-    w: float
-    x: float
-    y: float
-    z: float
-
-
-class Pose(BaseModel):
-    position: list[float]
-    quaternion: Quaternion
-
-
 class CalibrationParameter(BaseModel):
     name: str = Field(examples=["elbow_joint.offset"])
     value: float = Field(description="metres or radians")
@@ -81,9 +69,9 @@ class CalibrationResponse(BaseModel):
     from_: str = Field(alias="from", description="the id of the nominal model")
     link: str
     measure: Literal["position", "pose"]
-    base: Pose = Field(description="T_device_root: pass it as the base of FK requests on the calibrated model")
+    base: BasePositionQuaternion = Field(description="T_device_root: pass it as the base of FK requests on the calibrated model")
     point: Union[list[float], None] = Field(default=None, description="the marker point on the link (positions)")
-    tool: Union[Pose, None] = Field(default=None, description="T_link_tool (poses)")
+    tool: Union[BasePositionQuaternion, None] = Field(default=None, description="T_link_tool (poses)")
     identifiable: int
     parameters: list[CalibrationParameter]
     unidentifiable: list[Unidentifiable]
@@ -116,3 +104,7 @@ class CalibrationPosesResponse(BaseModel):
     q: list[list[float]]
     measure: dict = Field(description="criterion (D-optimality), log_det, condition_number, identifiable, and the "
                                       "same for n random configurations (random_log_det, random_condition_number)")
+
+
+#: request bodies the calibration routes read themselves (their schemas go into the OpenAPI components)
+CALIBRATION_REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (CalibrationRequest, CalibrationPosesRequest)

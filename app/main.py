@@ -27,6 +27,7 @@ from .heavy import configure_process
 from .middleware import BodySizeLimit, RequestContext
 from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
+from .calibration_schemas import CALIBRATION_REQUEST_SCHEMAS
 from .schemas import REQUEST_SCHEMAS
 from .settings import Settings
 
@@ -131,7 +132,7 @@ def _custom_openapi(app: FastAPI):
         if app.openapi_schema:
             return app.openapi_schema
         schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
-        _, defs = models_json_schema([(m, "validation") for m in REQUEST_SCHEMAS],
+        _, defs = models_json_schema([(m, "validation") for m in REQUEST_SCHEMAS + CALIBRATION_REQUEST_SCHEMAS],
                                      ref_template="#/components/schemas/{model}")
         components = schema.setdefault("components", {}).setdefault("schemas", {})
         for name, s in defs.get("$defs", {}).items():

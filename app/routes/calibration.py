@@ -84,7 +84,9 @@ def _pose(T: np.ndarray) -> dict:
                         507: {"model": Problem, "description": "the data directory cannot be written"}},
              dependencies=[Depends(require_write_key)],
              openapi_extra={"requestBody": {"required": True, "content": {
-                 "application/json": {"schema": {"$ref": "#/components/schemas/CalibrationRequest"}},
+                 "application/json": {"schema": {"$ref": "#/components/schemas/CalibrationRequest"}, "example": {
+                     "link": "tool0", "loss": "huber", "holdout": 0.2, "measurements": [
+                         {"q": [0.12, -1.31, 1.77, -0.42, 1.61, 0.05], "position": [-0.612, 0.3051, 0.1183]}]}},
                  "text/csv": {"schema": {"type": "string"},
                               "example": "shoulder_pan_joint,...,wrist_3_joint,x,y,z\n0.1,...,0.3,0.41,0.12,0.33\n"}}}})
 async def calibrate(model_id: ModelId, options: Annotated[dict, Depends(read_calibration_request)], request: Request,
@@ -133,7 +135,10 @@ async def read_poses_request(request: Request, settings: SettingsDep) -> dict[st
 
 
 @router.post("/models/{model_id}/calibration/poses", response_model=CalibrationPosesResponse, responses=_ERRORS,
-             dependencies=[Depends(require_read_key)])
+             dependencies=[Depends(require_read_key)],
+             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
+                 "schema": {"$ref": "#/components/schemas/CalibrationPosesRequest"},
+                 "example": {"link": "tool0", "n": 30, "measure": "position", "random_seed": 0}}}}})
 async def calibration_poses(model_id: ModelId, options: Annotated[dict, Depends(read_poses_request)],
                             request: Request, registry: RegistryDep):
     """`n` configurations within the limits where measuring determines the calibration best.

@@ -33,6 +33,7 @@ from ...errors import CalibrationError, KinematicsError, UnsupportedJointError
 from ...io.urdf import parse_urdf
 from ...model.robot import RobotModel
 from ...spatial.transforms import make_transform
+from ...tolerances import MAX_ABS_COORDINATE
 from .errors_model import ErrorModel
 from .identification import identify, residual_and_jacobian, singular_values
 from .urdf_out import corrected_urdf
@@ -167,9 +168,14 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
     shape = (Q.shape[0], 3) if measure == "position" else (Q.shape[0], 4, 4)
     if data.shape != shape:
         raise CalibrationError(f"expected {Q.shape[0]} measured {measure}s of shape {shape[1:]}, got {data.shape}")
-    bad = np.flatnonzero(~np.all(np.isfinite(data.reshape(len(data), -1)), axis=1))
+    flat = data.reshape(len(data), -1)
+    bad = np.flatnonzero(~np.all(np.isfinite(flat), axis=1))
     if bad.size:
         raise CalibrationError(f"measurement {int(bad[0])}: the measured {measure} has a non-finite value (NaN or inf)")
+    bad = np.flatnonzero(np.any(np.abs(flat) > MAX_ABS_COORDINATE, axis=1))
+    if bad.size:
+        raise CalibrationError(f"measurement {int(bad[0])}: the measured {measure} has a value beyond "
+                               f"+-{MAX_ABS_COORDINATE:g} m")
     if measure == "pose":
         R = data[:, :3, :3]
         err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
@@ -185,7 +191,17 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
     return Q, data, measure
 
 
-def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
+def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **options) -> Calibration:
+    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
+    (the options: :func:`_calibrate`). A numerical breakdown on degenerate data (a linear-algebra
+    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure."""
+    try:
+        return _calibrate(model, link, q, positions, poses, **options)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationError(f"the measurements are degenerate: the fit broke down ({exc})") from None
+
+
+def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
               parameters: str = "full", base="estimate", tool: str = "estimate", loss: str = "linear",
               holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
               name: str | None = None) -> Calibration:
