@@ -2,8 +2,9 @@
 
 ``POST /models/{id}/symbolic`` and ``POST /symbolic/dh`` answer ``A_i``, ``T``, Jacobians and
 task vectors in LaTeX, text, Python or C (:func:`kinematics.symbolic`); the derivation runs
-in a worker process stopped after ``KIN_SYMBOLIC_TIMEOUT`` seconds (422 ``symbolic-timeout``,
-suggesting ``simplify: false``), or as soon as the client disconnects (``app.heavy``).
+in a worker process stopped after ``KIN_SYMBOLIC_TIMEOUT`` seconds (or the request's shorter
+``timeout``): 503 ``time-budget-exceeded`` naming the setting (or the field) and its limit, as every
+time budget, suggesting ``simplify: false``; or as soon as the client disconnects (``app.heavy``).
 ``POST /models/{id}/task`` gives ``r = (p, phi)`` and the analytic Jacobian ``J_r`` numerically
 (:func:`kinematics.task`).
 """
@@ -22,19 +23,27 @@ from ..schemas import (SYMBOLIC_DH_EXAMPLES, SYMBOLIC_EXAMPLES, SymbolicDHReques
 
 router = APIRouter(tags=["closed forms"], dependencies=[Depends(require_read_key)])
 
-_ERRORS = error_responses({422: "invalid input, no closed form, or over the time limit (symbolic-timeout)"},
-                          statuses=(404, 503))
+_ERRORS = error_responses({422: "invalid input, or no closed form",
+                           503: "over the time limit KIN_SYMBOLIC_TIMEOUT (or the request's timeout), or the time "
+                                "budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"}, statuses=(404,))
+
+#: the setting that bounds a derivation, as its time-budget problem names it
+SETTING = "KIN_SYMBOLIC_TIMEOUT"
 
 
-def _timeout(settings, requested: float | None) -> float:
+def _timeout(settings, requested: float | None) -> tuple[float, str]:
+    """The derivation's time limit and where it comes from: the setting, or the request's shorter ``timeout``."""
     limit = settings.symbolic_timeout
-    return limit if requested is None else min(float(requested), limit)
+    if requested is None or float(requested) >= limit:
+        return limit, SETTING
+    return float(requested), "timeout"
 
 
 def _options(req, settings) -> dict:
+    timeout, setting = _timeout(settings, req.timeout)
     return dict(what=req.what, fmt=req.format, simplify=req.simplify, representation=req.representation,
                 components=req.components, variables=req.variables, prefix=req.prefix,
-                timeout=_timeout(settings, req.timeout))
+                timeout=timeout, timeout_setting=setting)
 
 
 @router.post("/models/{model_id}/symbolic", response_model=SymbolicResponse, response_model_exclude_none=True,
