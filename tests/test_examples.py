@@ -42,11 +42,17 @@ def deviation(output: str, label: str) -> float:
 def test_every_example_is_tested_and_sized():
     scripts = sorted(p.name for p in EXAMPLES.glob("[0-9][0-9]_*.py"))
     tested = {name for name in globals() if name.startswith("test_example_")}
-    assert len(scripts) >= 6
+    assert len(scripts) >= 8
     for script in scripts:
         assert any(t.startswith(f"test_example_{script[:2]}_") for t in tested), f"{script} has no test"
         lines = (EXAMPLES / script).read_text().count("\n")
         assert 20 <= lines <= 80, f"{script}: {lines} lines (an example is 20-80 lines)"
+
+
+def test_every_example_is_shown_in_the_documentation():
+    pages = "".join(p.read_text() for p in (REPO / "docs").rglob("*.md"))
+    for script in sorted(EXAMPLES.glob("[0-9][0-9]_*.py")):
+        assert f'--8<-- "examples/{script.name}"' in pages, f"no page includes {script.name}"
 
 
 def test_example_01_ur5_fk_and_jacobian():
@@ -109,3 +115,27 @@ def test_example_06_rest_client(tmp_path):
     assert "2R tip at q = (0, 90 deg): [0.5 0.4 0. ]" in out
     assert "velocity references: ['local', 'local_world_aligned', 'world'] (2, 1, 6)" in out
     assert "refused: 422" in out
+
+
+def test_example_07_workspace():
+    out = run_example("07_workspace.py")
+    area = float(re.search(r"area ([0-9.]+) m\^2, exact 2.5133", out).group(1))
+    assert abs(area / (3.141592653589793 * 0.8) - 1) < 0.01  # the annulus between 0.1 m and 0.9 m
+    top = float(re.search(r"manipulability [0-9.]+ \.\. ([0-9.]+) \(at most 0.2\)", out).group(1))
+    assert 0.19 < top <= 0.2
+    reach = float(re.search(r"ur5: reach ([0-9.]+) m", out).group(1))
+    assert 0.95 < reach < 1.1
+    volumes = re.search(r"volume \(m\^3\) over N/4, N/2, N samples: \[(.*)\]", out).group(1).split(",")
+    assert len(volumes) == 3 and all(float(v) > 0 for v in volumes)
+    assert "FK of other samples within the sampled reach + 1 cm: True" in out
+
+
+def test_example_08_task_vectors_and_analytic_jacobians():
+    out = run_example("08_task_jacobian.py")
+    for representation in ("rpy", "zyz", "quaternion", "rotvec"):
+        line = next(line for line in out.splitlines() if line.startswith(representation + " "))
+        assert float(line.rsplit("finite differences", 1)[1]) < 1e-8, line
+    assert "quaternion r = " in out and "J_r (7, 6)" in out
+    assert "planar 2R: r = [0.5      0.4      1.570796] J_r = [[-0.4, -0.4], [0.5, 0.0], [1.0, 1.0]]" in out
+    assert "rows ('px', 'py', 'pz', 'yaw')" in out
+    assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
