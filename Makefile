@@ -42,7 +42,7 @@ bench-ik: $(STAMP)
 
 # the documentation site, offline, into site/ (open site/index.html); --strict: a warning fails it
 docs: $(STAMP)
-	$(BIN)/mkdocs build --strict
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 clean:
 	rm -rf $(VENV) .pytest_cache build site *.egg-info

@@ -57,7 +57,8 @@ def markdown(text: str) -> str:
                 i += 1
             while block and not block[-1]:
                 block.pop()
-            out += ["", "```python", *block, "```", ""]
+            language = "pycon" if block and block[0].startswith(">>>") else "python"
+            out += ["", "```" + language, *block, "```", ""]
             continue
         out.append(_inline(line))
         i += 1
