@@ -18,6 +18,7 @@ print("tool0 position (m):", np.round(T[:3, 3], 6))
 print("tool0 quaternion (w, x, y, z):", np.round(fk.components()["quaternion"][0, 0], 6))
 print(f"FK deviation from Pinocchio: {fk.verification.max_position_error:.1e} m")
 
+# --8<-- [start:jacobians]
 # the three Jacobian references, 6 x 6, linear rows first
 for reference in ("world", "local", "local_world_aligned"):
     jac = kinematics.jacobian(ur5, q, link="tool0", reference=reference, verify=True)
@@ -37,3 +38,4 @@ p0 = kinematics.fk(ur5, q, links=["tool0"]).poses[0, 0, :3, 3]
 p1 = kinematics.fk(ur5, np.add(q, h * qdot), links=["tool0"]).poses[0, 0, :3, 3]
 J = kinematics.jacobian(ur5, q, link="tool0", reference="local_world_aligned").jacobians[0]
 print("finite difference agrees:", bool(np.allclose((p1 - p0) / h, J[:3] @ qdot, atol=1e-5)))
+# --8<-- [end:jacobians]
