@@ -88,6 +88,7 @@ def test_example_03_floating_base():
 
 
 def test_example_04_closed_forms_of_a_dh_table():
+    pytest.importorskip("sympy", reason="the closed forms need sympy")
     out = run_example("04_closed_forms_dh.py")
     assert "parameters: ['a1', 'a2', 'd1', 'd4']" in out
     assert "a1*cos(q1) + a2*cos(q1 + q2)" in out and "d1 + d4 + q3" in out
