@@ -2,7 +2,7 @@
 
 ``calibrate`` reads the measurements (CSV: joint columns by name, then ``x,y,z`` or
 ``x,y,z,qw,qx,qy,qz``, in the measuring device's frame), fits the model
-(:func:`kinematics.api.calibrate`), prints a table of the parameters with their standard
+(:func:`kinematics.usecases.calibrate`), prints a table of the parameters with their standard
 deviations, the unidentifiable ones with the reason, and a residual summary; writes the
 calibrated URDF (``-o``) and, with ``--plot``, a PNG of the residual of every measurement before
 and after (matplotlib, Agg backend). ``calibration-poses`` prints (or writes as CSV) ``n``
@@ -19,7 +19,8 @@ import tempfile
 
 import numpy as np
 
-from .. import api
+from .. import usecases
+from ..usecases import Query
 from ..spatial.transforms import pose_components
 from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .pipeline import ModelLoadError, _fail, _model_options, load_model
@@ -96,9 +97,9 @@ def run_calibrate(args) -> int:
         text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
     except OSError as exc:
         return _fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
-    cal = api.calibrate(model, args.link, csv=text, point=point, parameters=args.parameters, base=args.base,
-                        tool=args.tool, loss=args.loss, holdout=args.holdout, random_seed=args.seed,
-                        rotation_weight=args.rotation_weight, name=args.name)
+    cal = usecases.calibrate(Query(model, link=args.link, point=point), csv=text, parameters=args.parameters,
+                             base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
+                             random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)
     print(report(cal, model.name))
     if args.output:
         _write(args.output, cal.urdf.encode("utf-8"))
@@ -212,7 +213,8 @@ def run_poses(args) -> int:
         point = _point(args.point)
     except ValueError as exc:
         return _fail("calibration-poses", str(exc), EXIT_USAGE)
-    choice = api.calibration_poses(model, args.link, args.n, measure=args.measure, random_seed=args.seed, point=point)
+    choice = usecases.calibration_poses(Query(model, link=args.link, point=point), args.n, measure=args.measure,
+                                        random_seed=args.seed)
     header = ",".join(model.joint_names)
     rows = "\n".join(",".join(repr(float(v)) for v in q) for q in choice.q)
     print(f"# {args.n} configurations for {model.name} link {args.link} ({args.measure}s): D-optimal log det "

@@ -62,7 +62,8 @@ class Calibration:
         holdout: indices held out of the fit; holdout_rmse: their RMS position residual (m), outliers
             among them left out (None if none).
         residuals_before, residuals_after: (N,) Euclidean position residual of every measurement.
-        iterations: function evaluations of the final fit. status: scipy's message.
+        iterations: function evaluations of the fits. status: scipy's message.
+        verification: the calibrated model's FK against Pinocchio's, when the use case was asked to verify.
     """
 
     model: RobotModel
@@ -90,6 +91,7 @@ class Calibration:
     rotation_rmse_after: float | None = None
     x: np.ndarray = field(default=None, repr=False)
     error_model: ErrorModel = field(default=None, repr=False)
+    verification: object = None  # set by the use case when asked (a kinematics.Verification)
 
     @property
     def urdf(self) -> str:

@@ -1,4 +1,8 @@
-"""Wire schemas of calibration: ``POST /models/{id}/calibrate`` and ``POST /models/{id}/calibration/poses``."""
+"""Wire schemas of calibration: ``POST /models/{id}/calibrate`` and ``POST /models/{id}/calibration/poses``.
+
+The requests build their :class:`kinematics.Query` from ``link``, ``point`` and ``verify``
+(:class:`~app.schemas.common.ToQuery`); ``base`` and ``tool`` here are what the calibration does
+with the device frame and the tool (estimate them, or hold them), not poses of the query."""
 
 from __future__ import annotations
 
@@ -6,7 +10,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .schemas import BasePose, BasePositionQuaternion, Integer, JointMap, JointVector, Number, Point
+from .common import BasePose, BasePositionQuaternion, Flag, Integer, JointMap, JointVector, Number, Point, ToQuery
 
 _MEASURE_Q = "the joint values of the measurement: a vector in the model's joint order or a {joint: value} map"
 
@@ -23,7 +27,7 @@ class PoseMeasurement(BaseModel):
     pose: BasePose = Field(description="the tool's pose as the device saw it (T_device_tool)")
 
 
-class CalibrationRequest(BaseModel):
+class CalibrationRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
     link: str = Field(description="the link the marker or tool is fixed to")
     measurements: Union[list[PositionMeasurement], list[PoseMeasurement]] = Field(
@@ -46,6 +50,8 @@ class CalibrationRequest(BaseModel):
     rotation_weight: Number = Field(default=1.0, gt=0.0, le=1e3, description="metres per radian of a rotation "
                                                                            "residual (poses): 1 weighs 1 mrad as 1 mm")
     name: Union[str, None] = Field(default=None, max_length=200, description="the calibrated model's name")
+    verify: Flag = Field(default=False, description="also compare the calibrated model's FK with Pinocchio's on the "
+                                                    "measured configurations (verification)")
 
 
 class CalibrationParameter(BaseModel):
@@ -86,9 +92,11 @@ class CalibrationResponse(BaseModel):
     holdout_rmse: Union[float, None]
     iterations: int
     residuals: Residuals
+    verification: Union[dict, None] = Field(default=None, description="with verify: reference, max_position_error, "
+                                                                      "max_rotation_error of the calibrated model")
 
 
-class CalibrationPosesRequest(BaseModel):
+class CalibrationPosesRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
     link: str
     n: Integer = Field(ge=1, le=1000, description="how many configurations")
@@ -106,5 +114,16 @@ class CalibrationPosesResponse(BaseModel):
                                       "same for n random configurations (random_log_det, random_condition_number)")
 
 
-#: request bodies the calibration routes read themselves (their schemas go into the OpenAPI components)
-CALIBRATION_REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (CalibrationRequest, CalibrationPosesRequest)
+CALIBRATION_EXAMPLES = {
+    "ur5_positions": {"summary": "ur5: marker positions (a real request has dozens), huber, 20 % held out",
+                      "value": {"link": "tool0", "loss": "huber", "holdout": 0.2, "measurements": [
+                          {"q": [0.12, -1.31, 1.77, -0.42, 1.61, 0.05], "position": [-0.612, 0.3051, 0.1183]}]}},
+}
+CALIBRATION_POSES_EXAMPLES = {
+    "ur5_30": {"summary": "ur5: 30 configurations to measure a marker on tool0",
+               "value": {"link": "tool0", "n": 30, "measure": "position", "random_seed": 0}},
+}
+
+__all__ = ["PositionMeasurement", "PoseMeasurement", "CalibrationRequest", "CalibrationParameter", "Unidentifiable",
+           "Residuals", "CalibrationResponse", "CalibrationPosesRequest", "CalibrationPosesResponse",
+           "CALIBRATION_EXAMPLES", "CALIBRATION_POSES_EXAMPLES"]
