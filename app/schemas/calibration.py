@@ -10,6 +10,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .calibration_example import UR5_MEASUREMENTS
 from .common import BasePose, BasePositionQuaternion, Flag, Integer, JointMap, JointVector, Number, Point, ToQuery
 
 _MEASURE_Q = "the joint values of the measurement: a vector in the model's joint order or a {joint: value} map"
@@ -115,9 +116,8 @@ class CalibrationPosesResponse(BaseModel):
 
 
 CALIBRATION_EXAMPLES = {
-    "ur5_positions": {"summary": "ur5: marker positions (a real request has dozens), huber, 20 % held out",
-                      "value": {"link": "tool0", "loss": "huber", "holdout": 0.2, "measurements": [
-                          {"q": [0.12, -1.31, 1.77, -0.42, 1.61, 0.05], "position": [-0.612, 0.3051, 0.1183]}]}},
+    "ur5_positions": {"summary": "ur5: 30 marker positions, huber loss, 20 % held out",
+                      "value": {"link": "tool0", "loss": "huber", "holdout": 0.2, "measurements": UR5_MEASUREMENTS}},
 }
 CALIBRATION_POSES_EXAMPLES = {
     "ur5_30": {"summary": "ur5: 30 configurations to measure a marker on tool0",
