@@ -94,7 +94,8 @@ def run(report: Report, quick: bool = False) -> None:
     rows.append(["linear, outliers removed by hand", "-", f"{clean.rmse_after * 1e6:.1f}",
                  f"{_truth_rms(clean, truth, Q[60:]) * 1e6:.1f}"])
     report.add("Calibration: 3 planted 5 mm outliers (ur5, positions, 60 measurements)",
-               table(["loss", "named outliers", "RMS after (um; huber: the named outliers left out)", "error vs truth on 40 others (um)"], rows),
+               table(["loss", "named outliers", "RMS after (um; huber: the named outliers left out)",
+                      "error vs truth on 40 others (um)"], rows),
                note=f"Planted at measurements {', '.join(map(str, bad))}.")
 
     # pose selection

@@ -76,7 +76,8 @@ class CalibrationResponse(BaseModel):
     from_: str = Field(alias="from", description="the id of the nominal model")
     link: str
     measure: Literal["position", "pose"]
-    base: BasePositionQuaternion = Field(description="T_device_root: pass it as the base of FK requests on the calibrated model")
+    base: BasePositionQuaternion = Field(description="T_device_root: pass it as the base of FK requests on the "
+                                                     "calibrated model")
     point: Union[list[float], None] = Field(default=None, description="the marker point on the link (positions)")
     tool: Union[BasePositionQuaternion, None] = Field(default=None, description="T_link_tool (poses)")
     identifiable: int

@@ -62,7 +62,8 @@ def parse_measurements_csv(text: str | bytes, joint_names: Sequence[str], max_ro
     elif tuple(rest) == POSE_COLUMNS:
         measure = POSE_COLUMNS
     else:
-        raise CalibrationError(f"after the joint columns the CSV must have x,y,z or x,y,z,qw,qx,qy,qz; got {','.join(rest)}")
+        raise CalibrationError("after the joint columns the CSV must have x,y,z or x,y,z,qw,qx,qy,qz; "
+                               f"got {','.join(rest)}")
     if len(rows) - 1 > max_rows:
         raise CalibrationError(f"the CSV has {len(rows) - 1} rows, more than {max_rows}")
     data = np.empty((len(rows) - 1, len(header)))

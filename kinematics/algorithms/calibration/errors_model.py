@@ -46,6 +46,7 @@ _UNIT = {
     "yaw": np.array([0.0, 0, 0, 0, 0, 1]), "pitch": np.array([0.0, 0, 0, 0, 1, 0]), "roll": np.array([0.0, 0, 0, 1, 0, 0]),
 }
 ORIGIN_COMPONENTS = ("x", "y", "z", "yaw", "pitch", "roll")
+_ANGLES = ("yaw", "pitch", "roll")
 #: the base's rotations are about the device's axes: named rx, ry, rz
 _BASE_NAMES = {"x": "x", "y": "y", "z": "z", "yaw": "rz", "pitch": "ry", "roll": "rx"}
 
@@ -126,14 +127,14 @@ class ErrorModel:
                 self.value_map.append((model.q_index[leader], m, o))
         params: list[Parameter] = []
         if base == "estimate":
-            params += [Parameter(f"base.{_BASE_NAMES[c]}", "base", c, c in ("yaw", "pitch", "roll")) for c in ORIGIN_COMPONENTS]
+            params += [Parameter(f"base.{_BASE_NAMES[c]}", "base", c, c in _ANGLES) for c in ORIGIN_COMPONENTS]
         for k, j in enumerate(self.joints):
             if parameters == "full":
-                params += [Parameter(f"{j.name}.{c}", j.name, c, c in ("yaw", "pitch", "roll"), k) for c in ORIGIN_COMPONENTS]
+                params += [Parameter(f"{j.name}.{c}", j.name, c, c in _ANGLES, k) for c in ORIGIN_COMPONENTS]
             params.append(Parameter(f"{j.name}.offset", j.name, "offset", j.type != "prismatic", k))
         if tool == "estimate":
             comps = ("x", "y", "z") if measure == "position" else ORIGIN_COMPONENTS
-            params += [Parameter(f"tool.{c}", "tool", c, c in ("yaw", "pitch", "roll")) for c in comps]
+            params += [Parameter(f"tool.{c}", "tool", c, c in _ANGLES) for c in comps]
         self.parameters = tuple(params)
         self.names = tuple(p.name for p in params)
         self.index = {p.name: i for i, p in enumerate(params)}
@@ -154,7 +155,6 @@ class ErrorModel:
         """The chain as a list of ``(matrix (N, 4, 4) or (4, 4), screw or None, parameter index)``:
         a constant (screw None) or a one-parameter factor ``exp([ξ] value)``; the joint factors
         carry their zero offset's index (or -1)."""
-        N = Q.shape[0]
         out = []
 
         def param_factor(xi, idx, fixed_value=0.0):

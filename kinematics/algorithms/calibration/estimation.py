@@ -314,7 +314,8 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     Js = J.reshape(-1, len(x))[:, sel]
     if loss == "linear":
         rr = _residuals(em, Q[fit], meas_fit, x, rotation_weight)
-        outliers_fit = np.flatnonzero(np.sum(rr * rr, axis=1) > _robust_sigma(rr) ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d))
+        bound = _robust_sigma(rr) ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d)
+        outliers_fit = np.flatnonzero(np.sum(rr * rr, axis=1) > bound)
 
     # 5. statistics
     dof_res = max(len(r) - len(sel), 1)

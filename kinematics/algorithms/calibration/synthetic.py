@@ -15,7 +15,6 @@ import numpy as np
 
 from ...model.robot import RobotModel
 from ...spatial.rotations import rpy_to_matrix
-from ...spatial.transforms import make_transform
 from .errors_model import ErrorModel
 
 
