@@ -28,6 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2
 
+from ...engine import cancel
 from ...engine.poe import compile_model
 from ...errors import CalibrationError, KinematicsError, UnsupportedJointError
 from ...io.urdf import parse_urdf
@@ -376,6 +377,7 @@ def _robust_sigma(r: np.ndarray) -> float:
 
 def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
     def fun(z):
+        cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
         return _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
 
     def jac(z):

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...engine import cancel
 from ...errors import CalibrationError
 from ...model.robot import RobotModel
 from .errors_model import ErrorModel
@@ -117,6 +118,7 @@ def _d_optimal(G: np.ndarray, n: int) -> list[int]:
     info = _Information(G)
     chosen: list[int] = []
     for _ in range(n):
+        cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
         gain = info.gains()
         gain[chosen] = -np.inf
         k = int(np.argmax(gain))
@@ -125,6 +127,7 @@ def _d_optimal(G: np.ndarray, n: int) -> list[int]:
     for _ in range(EXCHANGE_PASSES):
         improved = False
         for slot in range(n):
+            cancel.check()
             info.update(chosen[slot], -1.0)  # the information without this configuration
             gain = info.gains()
             current = gain[chosen[slot]]

@@ -200,3 +200,16 @@ def test_a_link_without_moving_joints_is_refused(catalogue):
     model, link, truth, Q, data = scenario(catalogue, "ur5", "tool0", "position")
     with pytest.raises(CalibrationError, match="no moving joint"):
         calibrate(model, model.root, Q, positions=data)
+
+
+def test_a_cancelled_calibration_stops(catalogue):
+    from kinematics.engine.cancel import Cancellation, cancellable
+    from kinematics.errors import CancelledError
+
+    model, link, truth, Q, data = scenario(catalogue, "ur5", "tool0", "position")
+    token = Cancellation()
+    token.cancel()
+    with cancellable(token), pytest.raises(CancelledError):
+        calibrate(model, link, Q, positions=data)
+    with cancellable(token), pytest.raises(CancelledError):
+        select_poses(model, link, 10)
