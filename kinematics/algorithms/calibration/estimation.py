@@ -282,20 +282,22 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
 
     # 4. the fit; the identifiable set is read again at the first solution (a marker guessed on a
     # joint axis hides that joint's motion at the start, not at the solution)
-    z, _, _ = _solve(em, Q[fit], meas_fit, x0, ident.selected, x0[ident.selected].copy(), rotation_weight, "linear", 1.0)
+    z, nfev, status = _solve(em, Q[fit], meas_fit, x0, ident.selected, x0[ident.selected].copy(), rotation_weight,
+                             "linear", 1.0)
     x1 = _full(x0, ident.selected, z)
     _, J1 = residual_and_jacobian(em, Q[fit], x1, meas_fit, rotation_weight)
     ident1 = identify(em, J1.reshape(-1, len(x0)), measure)
     if ident1.rank > ident.rank:
         ident = ident1
+        if len(fit) * d <= ident.rank:
+            raise CalibrationError(f"{len(fit)} measurements give {len(fit) * d} equations, not more than the "
+                                   f"{ident.rank} parameter combinations they should determine: measure more "
+                                   "configurations")
     sel = ident.selected
     inliers = np.arange(len(fit))
     outliers_fit: np.ndarray = np.array([], dtype=np.intp)
-    nfev = 0
     z = x1[sel].copy()
-    status = ""
-    if loss == "huber":
-        z, nfev, status = _solve(em, Q[fit], meas_fit, x0, sel, z, rotation_weight, "linear", 1.0)
+    if loss == "huber":  # from the linear fit, a robust one whose scale follows the residuals' spread
         for _ in range(3):
             r = _residuals(em, Q[fit], meas_fit, _full(x0, sel, z), rotation_weight)
             scale = _robust_sigma(r)
