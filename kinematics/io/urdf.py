@@ -28,9 +28,6 @@ from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE
 
 #: Default cap on the number of links (and of joints) in one model.
 DEFAULT_MAX_LINKS = 10_000
-#: Joint types URDF knows but this product refuses (none: floating and planar joints are read since
-#: the second wave, in Pinocchio's layout).
-UNSUPPORTED_TYPES: frozenset[str] = frozenset()
 #: The only plane normal a planar joint may have: Pinocchio's URDF reader makes every planar joint
 #: a JointModelPlanar, which moves in the x-y plane of the joint frame whatever <axis> says (and the
 #: URDF default axis is x), so any other axis would silently disagree with the reference.
@@ -204,11 +201,6 @@ def _check_document(root: ET.Element, max_links: int) -> None:
             raise URDFError(f"duplicate joint name {name!r}")
         joint_names.add(name)
         jt = el.get("type")
-        if jt in UNSUPPORTED_TYPES:
-            raise UnsupportedJointError(
-                f"joint {name!r} is of type {jt!r}, which is not supported; "
-                "give the root link's world pose in the request instead of a floating joint"
-            )
         if jt not in SUPPORTED_TYPES:
             raise URDFError(f"joint {name!r} has unknown type {jt!r}")
         for tag in ("parent", "child"):
