@@ -1,7 +1,7 @@
 """``kinematics ik``: inverse kinematics of every target pose of a file.
 
 Targets (CSV ``x,y,z,qw,qx,qy,qz``, ``.npy`` (N, 4, 4) or (N, 7), JSON lines of poses; see
-:class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.api.ik`;
+:class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.usecases.ik`;
 the answers (joint values, success, errors, iterations) go to OUTPUT, and one summary line to
 stderr. The exit code is 1 when any target was not solved.
 """

@@ -2,7 +2,7 @@
 
 ``fk`` and ``jacobian`` stream a trajectory file (CSV, ``.npy`` or JSON lines; see
 :mod:`kinematics.io.trajectory` for the formats) through the use cases of
-:mod:`kinematics.api` in chunks of :data:`~kinematics.io.trajectory.CHUNK_ROWS`
+:mod:`kinematics.usecases` in chunks of :data:`~kinematics.io.trajectory.CHUNK_ROWS`
 configurations, so memory stays bounded whatever the length of the file.
 """
 

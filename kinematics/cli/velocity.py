@@ -2,7 +2,7 @@
 
 Rows of ``q`` and ``qdot`` (CSV with joint-name and ``<joint>.qdot`` columns, ``.npy`` (N, 2 dof),
 JSON lines; see :class:`kinematics.io.trajectory.StateRows`) stream in chunks through
-:func:`kinematics.api.velocity`; per row and link the twist in one reference goes to OUTPUT.
+:func:`kinematics.usecases.velocity`; per row and link the twist in one reference goes to OUTPUT.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``kinematics workspace``: sample the reachable set of a link, save the cloud, plot the dexterity map.
 
-Samples configurations uniformly within the joint limits (:func:`kinematics.api.workspace`),
+Samples configurations uniformly within the joint limits (:func:`kinematics.usecases.workspace`),
 prints the summary (bounding box, reach, volume or area and its convergence, cell size,
 manipulability range), writes the cloud (``-o``: ``.npz`` with the dexterity map, or ``.csv``
 rows ``x,y,z,manipulability``) and draws (``--plot``, matplotlib's Agg backend) three orthogonal
