@@ -117,7 +117,8 @@ def summary(name: str, ws, elapsed: float) -> str:
         f"  bounding box  min [{lo[0]:.4f}, {lo[1]:.4f}, {lo[2]:.4f}]  max [{hi[0]:.4f}, {hi[1]:.4f}, {hi[2]:.4f}] m",
         f"  reach         {ws.reach:.4f} m (from the root)",
         f"  dimension     {ws.dimension}" + (" (planar)" if ws.dimension == 2 else ""),
-        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}",
+        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}"
+        + ("" if ws.converged else f"\n  not converged: {ws.advice}"),
         f"  voxel         {ws.voxel:.4g} m (cells {', '.join(f'{c:.4g}' for c in ws.cell)}; "
         f"{ws.voxel_centers.shape[0]} occupied)",
         f"  manipulability ({ws.measure}) min {M.min():.4g}, mean {M.mean():.4g}, max {M.max():.4g}",
