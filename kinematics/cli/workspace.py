@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from .. import api
-from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, SAMPLES_PER_CELL
+from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
 from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .pipeline import ModelLoadError, _fail, _model_options, load_model
 from .progress import progress
@@ -34,7 +34,9 @@ OUTPUT_HELP = """output (-o, by extension):
 manipulability (--measure): the product of the singular values of the link's local_world_aligned
 Jacobian over the joints on its path, 6 x k (pose, default) or its 3 position rows (position).
 volume: occupied cells of edge --voxel (default: about N/%d cells in the bounding box),
-extrapolated as 2 V(h) - V(2h); its convergence is the same estimate over the first N/4, N/2, N.""" % SAMPLES_PER_CELL
+extrapolated as 2 V(h) - V(2h) where the samples are dense for h (at least %d per occupied cell), else
+the occupied cells' volume, flagged "not converged" with advice; its convergence is the same estimate over
+the first N/4, N/2, N.""" % (SAMPLES_PER_CELL, MIN_SAMPLES_PER_CELL)
 
 
 def register(sub) -> None:
