@@ -47,6 +47,7 @@ import re
 import stat as stat_kind
 import tempfile
 import threading
+import time
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -68,6 +69,8 @@ log = logging.getLogger("app.registry")
 class _KnownUnreadable(ValueError):
     """A stored file already found unreadable (and logged) in its current version."""
 
+#: a temporary file older than this at start-up is a write that was killed half-way (removed)
+STALE_TEMPORARY_SECONDS = 3600.0
 #: what a model id in a path may look like (no path separators, no "..")
 MODEL_ID_PATTERN = r"^[A-Za-z0-9_.-]{1,128}$"
 _MODEL_ID = re.compile(MODEL_ID_PATTERN)
@@ -265,7 +268,9 @@ class Registry:
 
     # ------------------------------------------------------------------ start-up
     def load_stored(self) -> int:
-        """Load every stored model (start-up); unreadable or foreign files are skipped with a warning."""
+        """Load every stored model (start-up); unreadable or foreign files are skipped with a warning.
+        Temporary files older than :data:`STALE_TEMPORARY_SECONDS` (a write killed half-way) are removed."""
+        self._remove_stale_temporaries()
         count = 0
         for model_id in self._stored_ids():
             try:
@@ -276,6 +281,23 @@ class Registry:
             except (OSError, ValueError, KinematicsError) as exc:
                 log.warning("skipping stored model %s: %s", model_id, exc)
         return count
+
+    def _remove_stale_temporaries(self) -> None:
+        """Remove the ``.tmp-`` files of writes killed half-way (never listed: only their space is at
+        stake); a recent one may be another process's write in progress and stays."""
+        cutoff = time.time() - STALE_TEMPORARY_SECONDS
+        try:
+            entries = list(os.scandir(self.models_dir))
+        except OSError:
+            return
+        for entry in entries:
+            try:
+                if entry.name.startswith(".tmp-") and entry.is_file(follow_symlinks=False) \
+                        and entry.stat(follow_symlinks=False).st_mtime < cutoff:
+                    os.unlink(entry.path)
+                    log.info("removed %s, a temporary file of a write that did not finish", entry.name)
+            except OSError:  # gone meanwhile, or a read-only directory
+                pass
 
     # ------------------------------------------------------------------ lookups
     def is_bundled(self, model_id: str) -> bool:

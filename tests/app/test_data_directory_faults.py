@@ -10,7 +10,8 @@
   listed or left, and the same upload then succeeds;
 * stored files damaged while the server was down (truncated, a flipped bit, emptied, a FIFO, a
   directory, a sidecar with fields of the wrong type or missing): the server starts, the intact
-  models work, and the damaged ones answer a problem, never a 500.
+  models work, and the damaged ones answer a problem, never a 500; an old temporary file of a
+  write killed half-way is removed at start-up, a recent one (maybe another process's) kept.
 
 The tmpfs tests need root (``mount``); they skip cleanly elsewhere. Every wait is on a condition
 (the server answers, the upload is read by the server), never on a sleep that must be long enough.
@@ -318,12 +319,20 @@ def test_files_damaged_while_the_server_was_down(tmp_path):
     assert b"0.45" in p.read_bytes()
     p.write_bytes(p.read_bytes().replace(b"0.45", b"0.55"))
     (models / f"{ids['xacro_no_sidecar']}.meta.json").unlink()
+    # temporary files of writes killed half-way: an old one is removed at start-up, a recent one (maybe
+    # another process's write in progress) stays; neither is ever listed
+    old, recent = models / ".tmp-killed.urdf", models / ".tmp-recent.urdf"
+    for tmp in (old, recent):
+        tmp.write_bytes(bodies["intact"][:1000])
+    hours_ago = time.time() - 2 * 3600
+    os.utime(old, (hours_ago, hours_ago))
     damaged = {"truncated", "flipped", "emptied", "fifo", "directory", "dh_damaged", "xacro_no_sidecar"}
     intact = set(ids) - damaged
 
     with LiveServer(data_dir, tmp_path / "server2.log") as server2, \
             httpx.Client(base_url=server2.url, timeout=TIMEOUT) as c:
         assert c.get("/health").status_code == 200
+        assert not old.exists() and recent.exists()
         assert _stored(c) == {ids[t] for t in intact}
         for tag in intact:
             mid = ids[tag]
