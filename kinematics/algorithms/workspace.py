@@ -264,13 +264,19 @@ def default_voxel(X: np.ndarray, dim: int) -> float:
 
 
 def _enclosed_from(cell_idx: np.ndarray, first: np.ndarray, grid: _Grid) -> np.ndarray:
-    """(M,) per occupied cell, the number of samples after which it and its 2 dim face neighbours
-    are all occupied (``N`` or more: never; a cell on the grid's edge is never enclosed)."""
-    keys = _linear(cell_idx, grid.counts)
-    order = np.argsort(keys)
-    sorted_keys = keys[order]
-    big = np.iinfo(np.int64).max
-    enclosed = first.astype(np.int64).copy()
+    """(M,) per occupied cell (``cell_idx`` (M, 3) in increasing linear order, ``first`` (M,) the
+    first sample in each), the number of samples after which it and its 2 dim face neighbours
+    are all occupied (int64 max: never; a cell on the grid's edge is never enclosed).
+
+    >>> g = _Grid(np.zeros(3), np.eye(3), np.array([4, 4, 4]), np.full(3, 0.25), 3)
+    >>> idx = np.array([(i, j, k) for i in range(4) for j in range(4) for k in range(4)])
+    >>> e = _enclosed_from(idx, np.arange(64), g)
+    >>> sorted(map(tuple, idx[e < 64].tolist()))[:2], int(np.count_nonzero(e < 64))
+    ([(1, 1, 1), (1, 1, 2)], 8)
+    """
+    sorted_keys = _linear(cell_idx, grid.counts)
+    never = np.iinfo(np.int64).max
+    enclosed = first.astype(np.int64)
     for axis in range(grid.dim):
         for step in (-1, 1):
             nb = cell_idx.copy()
@@ -279,7 +285,7 @@ def _enclosed_from(cell_idx: np.ndarray, first: np.ndarray, grid: _Grid) -> np.n
             nkeys = _linear(np.where(inside[:, None], nb, 0), grid.counts)
             pos = np.minimum(np.searchsorted(sorted_keys, nkeys), len(sorted_keys) - 1)
             found = inside & (sorted_keys[pos] == nkeys)
-            np.maximum(enclosed, np.where(found, first[order[pos]], big), out=enclosed)
+            np.maximum(enclosed, np.where(found, first[pos], never), out=enclosed)
     return enclosed
 
 

@@ -228,3 +228,27 @@ def test_converged_answers_have_no_advice_and_a_drifting_estimate_says_so(catalo
     assert ws.converged and ws.advice is None
     drifting = W._verdict(1000, 0.1, 3, (10, 1.0, 1.2), True, 0.8, 1.0, None)
     assert drifting[0] is False and "changes by 20.0%" in drifting[1] and "more samples" in drifting[1]
+
+
+def test_a_planar_arm_with_a_fine_voxel_answers_the_occupied_area():
+    model = parse_urdf(planar_2r(0.5, 0.4, True))
+    exact = math.pi * (0.9**2 - 0.1**2)
+    ws = api.workspace(model, "tool", samples=20_000, voxel=0.002)  # 630,000 cells in the annulus
+    assert ws.dimension == 2 and ws.volume == 0.0
+    assert ws.area == ws.occupied == pytest.approx(len(ws.voxel_centers) * ws.cell[0] * ws.cell[1], rel=1e-12)
+    assert 0 < ws.area < exact and not ws.converged and "area is that of the occupied cells" in ws.advice
+
+
+def test_the_interior_floor_is_the_cells_the_samples_enclose():
+    """A dense cube of cells: the enclosed ones are those with all six face neighbours occupied,
+    counted from the sample that completes the neighbourhood."""
+    g = W._Grid(np.zeros(3), np.eye(3), np.array([6, 6, 6]), np.full(3, 1 / 6), 3)
+    idx = np.array([(i, j, k) for i in range(6) for j in range(6) for k in range(6)])
+    first = np.arange(len(idx))[::-1].copy()  # the last cell's sample came first
+    enclosed = W._enclosed_from(idx, first, g)
+    inner = np.all((idx >= 1) & (idx <= 4), axis=1)
+    assert np.all(enclosed[~inner] == np.iinfo(np.int64).max)
+    for c in np.flatnonzero(inner)[:10]:
+        neighbours = [c] + [int(np.flatnonzero(np.all(idx == idx[c] + d, axis=1))[0])
+                            for d in np.vstack([np.eye(3, dtype=int), -np.eye(3, dtype=int)])]
+        assert enclosed[c] == first[neighbours].max()
