@@ -294,12 +294,12 @@ def _verdict(N: int, h: float, dim: int, occupancy: tuple[int, float, float], de
     """``(converged, advice)``: dense at N/2 and N and the estimates there (``half``, ``full``)
     within :data:`CONVERGED_TOLERANCE`; otherwise what to change. ``occupancy``: the cells,
     ``V(h)`` and ``V(2h)`` at N; ``default``: the default voxel for these samples (None: it is h)."""
-    if dim == 0:
+    if dim < 2:  # a point or a curve: volume and area are 0, exactly
         return True, None
     cells, _, coarse = occupancy
     per_cell = N / max(cells, 1)
     if not dense:
-        what = "volume" if dim == 3 else "area" if dim == 2 else "length"
+        what = "volume" if dim == 3 else "area"
         # the cells at 2h are better covered than those at h: at least their measure / h^dim cells to fill
         needed = max(math.ceil(MIN_SAMPLES_PER_CELL * coarse / h**dim), 2 * N)
         larger = f"the default for these samples is {default:.3g} m" if default is not None and default > h else \
