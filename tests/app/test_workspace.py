@@ -109,3 +109,16 @@ def test_a_voxel_too_fine_for_the_samples_says_so_instead_of_answering_zero(api_
                                                               "random_seed": 7, "voxel": 0.1}).json()
     assert coarse["converged"] is True and coarse["advice"] is None
     assert 0 < coarse["volume"] < coarse["occupied_voxels"] * math.prod(coarse["cell"])  # the boundary layer removed
+
+
+@pytest.mark.parametrize("model_id, link", [("ur5", "tool0"), ("panda", "panda_hand"), ("puma560_standard", None),
+                                            ("ur5_dh", None)])
+def test_fine_voxels_on_several_arms_answer_what_the_samples_show(api_client, model_id, link):
+    body = {"samples": 50000, "random_seed": 3, "voxel": 0.015} | ({"link": link} if link else {})
+    r = api_client.post(f"/models/{model_id}/workspace", json=body)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    occupied = answer["occupied_voxels"] * math.prod(answer["cell"])
+    assert answer["volume"] == pytest.approx(occupied, rel=1e-12) and answer["volume"] > 0
+    assert [s["volume"] for s in answer["convergence"]] == sorted(s["volume"] for s in answer["convergence"])
+    assert answer["converged"] is False and "too sparse" in answer["advice"]
