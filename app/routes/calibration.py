@@ -121,7 +121,7 @@ def _calibrate(model_id: str, req: CalibrationRequest, csv: bytes | None, regist
         "tool": None if cal.tool is None else _pose(cal.tool),
         "identifiable": cal.identifiable, "parameters": cal.parameters, "unidentifiable": cal.unidentifiable,
         "condition_number": cal.condition_number, "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after,
-        "max_after": cal.max_after, "rotation_rmse_before": cal.rotation_rmse_before,
+        "max_before": cal.max_before, "max_after": cal.max_after, "rotation_rmse_before": cal.rotation_rmse_before,
         "rotation_rmse_after": cal.rotation_rmse_after, "outliers": cal.outliers, "holdout": cal.holdout,
         "holdout_rmse": cal.holdout_rmse, "iterations": cal.iterations,
         "residuals": {"before": cal.residuals_before.tolist(), "after": cal.residuals_after.tolist()},

@@ -86,6 +86,7 @@ class CalibrationResponse(BaseModel):
     condition_number: float
     rmse_before: float
     rmse_after: float
+    max_before: float
     max_after: float
     rotation_rmse_before: Union[float, None] = None
     rotation_rmse_after: Union[float, None] = None

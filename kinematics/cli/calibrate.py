@@ -126,7 +126,7 @@ def as_dict(cal) -> dict:
         "point": None if cal.point is None else [float(v) for v in cal.point],
         "tool": None if cal.tool is None else _pose(cal.tool), "identifiable": cal.identifiable,
         "parameters": cal.parameters, "unidentifiable": cal.unidentifiable, "condition_number": cal.condition_number,
-        "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after, "max_after": cal.max_after,
+        "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after, "max_before": cal.max_before, "max_after": cal.max_after,
         "outliers": cal.outliers, "holdout": cal.holdout, "holdout_rmse": cal.holdout_rmse,
         "residuals": {"before": cal.residuals_before.tolist(), "after": cal.residuals_after.tolist()},
     }
@@ -154,7 +154,7 @@ def report(cal, name: str) -> str:
         lines.append(f"  tool on {cal.link}: position [{', '.join(f'{v:.6f}' for v in t)}] m, "
                      f"quaternion wxyz [{', '.join(f'{v:.6f}' for v in q)}]")
     lines.append(f"  residuals (m): RMS before {cal.rmse_before:.3e}, after {cal.rmse_after:.3e}, "
-                 f"largest after {cal.max_after:.3e}")
+                 f"largest before {cal.max_before:.3e}, after {cal.max_after:.3e}")
     if cal.holdout:
         held = "n/a" if cal.holdout_rmse is None else f"{cal.holdout_rmse:.3e}"
         lines.append(f"  held out: {len(cal.holdout)} measurements, RMS {held} m")

@@ -56,8 +56,8 @@ class Calibration:
         parameters: ``{"name", "value", "sigma"}`` per fitted parameter (metres, radians).
         unidentifiable: ``{"name", "reason"}`` per other parameter.
         condition_number: of the column-equilibrated identification Jacobian at the solution.
-        rmse_before, rmse_after, max_after: RMS and largest Euclidean position residual (m) over the
-            fitted measurements (outliers left out).
+        rmse_before, rmse_after, max_before, max_after: RMS and largest Euclidean position residual (m)
+            over the fitted measurements (with huber, the named outliers left out).
         rotation_rmse_before, rotation_rmse_after: the same for rotations (rad), poses measured.
         outliers: indices of the measurements named outliers.
         holdout: indices held out of the fit; holdout_rmse: their RMS position residual (m), outliers
@@ -81,6 +81,7 @@ class Calibration:
     rmse_before: float
     rmse_after: float
     max_after: float
+    max_before: float
     outliers: list
     holdout: list
     holdout_rmse: float | None
@@ -354,7 +355,8 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         identifiable=ident.rank, parameters=params, unidentifiable=ident.unidentifiable,
         condition_number=cond,
         rmse_before=float(np.sqrt(np.mean(eb[used] ** 2))), rmse_after=float(np.sqrt(np.mean(ea[used] ** 2))),
-        max_after=float(ea[used].max()), outliers=sorted(int(i) for i in np.concatenate([fit[outliers_fit], held_out])),
+        max_after=float(ea[used].max()), max_before=float(eb[used].max()),
+        outliers=sorted(int(i) for i in np.concatenate([fit[outliers_fit], held_out])),
         holdout=[int(i) for i in held],
         holdout_rmse=float(np.sqrt(np.mean(ea[held_in] ** 2))) if held_in.size else None,
         residuals_before=eb, residuals_after=ea, iterations=int(nfev), status=status,
