@@ -27,6 +27,7 @@ from kinematics.errors import (
     AxesError,
     BasePoseError,
     BudgetError,
+    CalibrationError,
     CancelledError,
     ConfigurationNormError,
     DHError,
@@ -92,6 +93,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (PoseError, 422, "invalid-pose", "Invalid pose"),
+    (CalibrationError, 422, "invalid-calibration-data", "Measurements a calibration cannot use"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )

@@ -158,6 +158,16 @@ class DescriptionFormatError(URDFError):
     """A body that is none of the descriptions the product reads (URDF, xacro, MJCF, zip or gzip archive)."""
 
 
+class CalibrationError(KinematicsError):
+    """Measurements a calibration cannot use: too few for the parameters they should determine,
+    non-finite values, a configuration of the wrong length, a set that determines nothing (all
+    configurations equal, collinear points); ``field`` names the part of the request."""
+
+    def __init__(self, message: str, *, field: str = "measurements"):
+        super().__init__(message)
+        self.field = field
+
+
 def did_you_mean(name: object, valid, what: str = "names", limit: int = 10) -> str:
     """A suffix for "unknown name" messages: the closest valid names and a truncated list of them.
 

@@ -140,3 +140,15 @@ def test_example_08_task_vectors_and_analytic_jacobians():
     assert "planar 2R: r = [0.5      0.4      1.570796] J_r = [[-0.4, -0.4], [0.5, 0.0], [1.0, 1.0]]" in out
     assert "rows ('px', 'py', 'pz', 'yaw')" in out
     assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
+
+
+def test_example_09_calibration():
+    out = run_example("09_calibration.py")
+    chosen, random = map(float, re.search(r"log det ([0-9.]+) \(random ([0-9.]+)\)", out).groups())
+    assert chosen > random
+    assert "identifiable: 27 (4R + 3 = 27)" in out and "absorbed by the base frame" in out
+    before, after = map(float, re.search(r"RMS before ([0-9.]+) mm, after ([0-9.]+) um", out).groups())
+    assert before > 2 and after < 40  # millimetres before, the 35 um of the noise after
+    nominal, calibrated = map(float, re.search(r"nominal model ([0-9.]+) mm off, calibrated ([0-9.]+) um off",
+                                                out).groups())
+    assert nominal > 2 and calibrated < 30
