@@ -33,6 +33,8 @@ from fastapi import Request
 from kinematics import api
 from kinematics.errors import TimeBudgetError
 
+from . import metrics
+
 log = logging.getLogger("app.heavy")
 
 #: seconds between two looks at the client's connection (and at the clock) while heavy work runs
@@ -69,7 +71,7 @@ def heavy_pool(jobs: int, nice: int) -> ThreadPoolExecutor:
 
 def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> Any:
     state["started"] = True
-    with api.cancellable(token):
+    with metrics.HEAVY_RUNNING.track_inprogress(), api.cancellable(token):
         token.check()  # cancelled or out of time while it waited for a thread
         return fn(*args)
 
@@ -183,6 +185,27 @@ def _decoder():
             pool = _decoders[os.getpid()] = ProcessPoolExecutor(
                 max_workers=1, mp_context=multiprocessing.get_context("spawn"), initializer=_quiet_child)
         return pool
+
+
+def _decoder_ready() -> int:
+    """In the decoder process: import what :func:`decode_json` needs (pydantic, NumPy, the schemas);
+    its process id."""
+    import numpy  # noqa: F401
+    import pydantic  # noqa: F401
+
+    from . import schemas  # noqa: F401
+
+    return os.getpid()
+
+
+def start_decoder(settings):
+    """Start the worker's decoder process now (with the server), not on the first large body:
+    spawning it and importing the schemas there took about 1.4 s, which the first request over
+    ``KIN_DECODE_PROCESS_BYTES`` paid. A future of the process's id (the lifespan waits for it, so
+    that a server that answers is warm); None when the decoder is switched off (``0``)."""
+    if not settings.decode_process_bytes:
+        return None
+    return _decoder().submit(_decoder_ready)
 
 
 def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:
