@@ -230,6 +230,22 @@ def _bind(entry, itab, ftab, shape, dof):
     return call
 
 
+def bound_plan_fk(kernel, plan):
+    """``f(q, out)`` of :func:`fk_one` for a plan of the batch kernel (the batch path's single
+    configuration: ``Kernel.fk`` with one row); ``out`` (L', 4, 4)."""
+    itab, ftab = _tables(kernel, plan.order, 0, plan.lj, plan.pose, kernel.poe.dof)
+    return _bind(fk_one, itab, ftab, (plan.lj.shape[0], 4, 4), kernel.poe.dof)
+
+
+def bound_path_jacobian(kernel, link_index: int, code: int):
+    """``f(q, out)`` of :func:`jacobian_one` for link ``link_index`` and reference code ``code``
+    (the batch path's single configuration: ``Kernel.jacobian`` with one row); ``out`` (6, dof)."""
+    path, D = kernel.path_plan(link_index)
+    dof = kernel.poe.dof
+    itab, ftab = _tables(kernel, path, code, [], D, dof)
+    return _bind(jacobian_one, itab, ftab, (6, dof), dof)
+
+
 def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray | None = None):
     """``f(q, out=None)``: the Jacobian (6, dof) of ``link`` in ``reference`` (linear rows first)
     for one configuration ``q``; as :func:`fk_function` otherwise."""
