@@ -116,12 +116,20 @@ def run_uvicorn(*, host: str, port: int, workers: int, shutdown_timeout: float) 
     class Server(uvicorn.Server):
         """uvicorn's server, which takes over the signals held before its handlers were in place."""
 
+        stopped_before_start = False
+
         @contextlib.contextmanager
         def capture_signals(self):
             with super().capture_signals():
                 for sig in take_held():
                     self.handle_exit(sig, None)
                 yield
+
+        async def startup(self, sockets=None):
+            if self.should_exit:  # told to stop before it started: nothing to warm up, serve or drain
+                self.stopped_before_start = True
+                return
+            await super().startup(sockets=sockets)
 
     class Supervisor(Multiprocess):
         """uvicorn's supervisor of several workers, which refuses new connections once told to stop
@@ -148,7 +156,7 @@ def run_uvicorn(*, host: str, port: int, workers: int, shutdown_timeout: float) 
     if workers == 1:
         server = Server(config)
         server.run()
-        return EXIT_OK if server.started else 3
+        return EXIT_OK if server.started or server.stopped_before_start else 3
     Supervisor(config, sockets=[config.bind_socket()]).run()
     return EXIT_OK
 

@@ -49,7 +49,7 @@ import numpy as np
 
 from ..spatial.reference import Reference
 from ..spatial.transforms import inverse_transform
-from . import compiled
+from . import compiled, entries
 from . import ik as ik_kernel
 from . import velocity as velocity_kernel
 from .buffers import result_array
@@ -166,7 +166,7 @@ class Kernel:
         self._jint, self._jflt = jint, jflt
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
         self._named: dict[tuple[str, ...], _Plan] = {}
-        self._single: dict = {}  # bound single-configuration entries (kinematics.engine.single)
+        self._single: dict = {}  # bound single-configuration entries (kinematics.engine.entries)
         self._plan_all = self.plan(None)
         self._jplans: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._jcols: dict[int, np.ndarray] = {}
@@ -244,27 +244,23 @@ class Kernel:
         return out
 
     def _one_fk(self, plan: _Plan):
-        """``f(q, out)``: the single-configuration entry of :mod:`kinematics.engine.single` bound to
+        """``f(q, out)``: the single-configuration entry of :mod:`kinematics.engine.entries` bound to
         ``plan`` (built once per plan): one call of a compiled entry on packed tables instead of the
         batch kernel's eight arguments, so that a batch of one costs little more than ``fk_function``."""
         entry = self._single.get(id(plan))
         if entry is None or entry[0] is not plan:  # (an id may be reused by a plan that was not cached)
-            from . import single  # imports this module
-
-            entry = (plan, single.bound_plan_fk(self, plan))
+            entry = (plan, entries.bound_plan_fk(self, plan))
             if len(self._single) < PLAN_CACHE_SIZE:
                 self._single[id(plan)] = entry
         return entry[1]
 
     def _one_jacobian(self, link_index: int, code: int):
         """``f(q, out)``: the single-configuration Jacobian entry of link ``link_index`` in reference
-        ``code`` (:mod:`kinematics.engine.single`), built once per link and reference."""
+        ``code`` (:mod:`kinematics.engine.entries`), built once per link and reference."""
         key = (link_index, code)
         fn = self._single.get(key)
         if fn is None:
-            from . import single  # imports this module
-
-            fn = single.bound_path_jacobian(self, link_index, code)
+            fn = entries.bound_path_jacobian(self, link_index, code)
             if len(self._single) < 2 * PLAN_CACHE_SIZE:
                 self._single[key] = fn
         return fn
