@@ -130,7 +130,9 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
     if seeds is None:
         seeds = middle_of_limits(model)
-    Q0 = np.ascontiguousarray(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.dof)))
+    # a writable copy whatever N (one target's broadcast view is read-only, a second signature of the
+    # kernels that the start-up's warm-up did not load: the first batch request paid for it)
+    Q0 = np.array(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.dof)), order="C")
     T_root = np.ascontiguousarray(T_root)
     Q, _, _, steps = poe.kernel.ik(
         Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous, model.angular,

@@ -2,7 +2,9 @@
 
 The first IK request of 1,000 targets (a JSON body of ~280 KB, over ``KIN_DECODE_PROCESS_BYTES``)
 used to start the worker's decoder process (a spawned interpreter importing the schemas: ~1.4 s)
-and took 10-15 times as long as the same request again. The decoder now starts in the lifespan.
+and took 10-15 times as long as the same request again. The decoder now starts in the lifespan,
+decodes a large body there and freezes its heap (else the first real decode met a full garbage
+collection), and one IK target's seeds no longer give the kernels a signature the warm-up lacks.
 The test compares two measured durations of the same request on the same server (the first one
 against the median of the next nine), never a duration against a fixed figure.
 """
