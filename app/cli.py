@@ -71,8 +71,13 @@ def run_serve(args) -> int:
 
 def run_uvicorn(*, host: str, port: int, workers: int, shutdown_timeout: float) -> int:
     """Serve :data:`ASGI_APP` until SIGTERM / SIGINT (see the module for the shutdown)."""
-    import uvicorn
-    from uvicorn.supervisors import Multiprocess
+    try:
+        import uvicorn
+        from uvicorn.supervisors import Multiprocess
+    except ImportError as exc:
+        from kinematics.errors import MissingExtraError
+
+        raise MissingExtraError.of("service", "the REST service (kinematics serve)", "uvicorn") from exc
 
     class Supervisor(Multiprocess):
         """uvicorn's supervisor of several workers, which refuses new connections once told to stop."""

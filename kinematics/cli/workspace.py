@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import api
 from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, SAMPLES_PER_CELL
+from ..errors import MissingExtraError
 from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .pipeline import ModelLoadError, _fail, _model_options, load_model
 from .progress import progress
@@ -174,7 +175,10 @@ def _slice(ws, axis: int) -> tuple[np.ndarray, list[float]] | None:
 def plot(ws, path: str, title: str = "") -> None:
     """Three orthogonal slices of the dexterity map through the root (planar: the plane) and the
     convergence of the volume (area) estimate, as a PNG (matplotlib, Agg backend)."""
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise MissingExtraError.of("plot", "the workspace plot (--plot)", "matplotlib") from exc
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

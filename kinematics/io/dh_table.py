@@ -53,7 +53,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -302,22 +302,37 @@ def _reserved_names(n: int, convention: str) -> set[str]:
     return names
 
 
-def table_from_dict(d: Mapping[str, Any]) -> DHTable:
-    """Validate a table in the JSON shape of ``POST /models/dh`` and build a :class:`DHTable`.
+#: ``entry(value, where, angle, degrees)``: one table entry (``a``, ``alpha``, ``d``, ``theta``,
+#: ``offset``) as the caller keeps it (a float in radians here; a sympy expression for closed forms)
+Entry = Callable[[Any, str, bool, bool], Any]
 
-    Keys: ``name``, ``convention`` (``standard``|``modified``, default standard),
-    ``angles`` (``radians``|``degrees``, default radians), ``joints`` (rows with ``type``,
-    ``a``, ``alpha``, ``d``, ``theta``, optional ``name``, ``limits`` and ``offset``; an
-    ``offset`` is added to the joint variable's column), ``base`` and ``tool`` (4x4 or
-    ``{xyz, rpy}``). ``None`` values count as absent.
 
-    Raises :class:`~kinematics.errors.DHError` naming the field, e.g.
-    ``joints[2].alpha: 'abc' is not a number``.
+@dataclass(frozen=True)
+class TableFields:
+    """The validated fields of a table in the JSON shape of ``POST /models/dh``, its entries made
+    by an :data:`Entry` (:func:`read_table`): ``rows`` are dicts of ``type``, ``name``, ``limits``
+    (radians for revolute joints), ``a``, ``alpha``, ``d``, ``theta`` (offsets added)."""
 
-    >>> t = table_from_dict({"joints": [{"type": "revolute", "a": 1, "alpha": 0, "d": 0, "theta": 0}]})
-    >>> (t.convention, t.rows[0].name, t.rows[0].a)
-    ('standard', 'joint_1', 1.0)
-    """
+    name: str
+    convention: str
+    angles: str
+    rows: tuple[dict, ...]
+    base: np.ndarray
+    tool: np.ndarray
+
+
+def _numeric_entry(value: Any, where: str, angle: bool, degrees: bool) -> float:
+    v = _number(value, where)
+    return v * (math.pi / 180.0) if angle and degrees else v
+
+
+def read_table(d: Mapping[str, Any], entry: Entry = _numeric_entry, *, max_rows: int = MAX_DH_ROWS,
+               rows_limit: str | None = None, reserved: bool = True) -> TableFields:
+    """Validate the fields of a DH table (see :func:`table_from_dict`), each entry made by
+    ``entry``: the one validation of the numeric tables and of the symbolic ones
+    (:func:`kinematics.algorithms.symbolic.symbolic_table_from_dict`). ``max_rows`` bounds the
+    rows (``rows_limit`` says why in the message); ``reserved`` refuses joint names the
+    generated URDF uses for its links and fixed joints."""
     if not isinstance(d, Mapping):
         raise DHError(f"a DH table must be a mapping (JSON object), got {type(d).__name__}")
     d = {k: v for k, v in d.items() if v is not None}
@@ -332,7 +347,8 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
     if not isinstance(angles, str) or angles.lower() not in ANGLE_UNITS:
         raise DHError(f"angles: {angles!r} is not one of {list(ANGLE_UNITS)}")
     angles = angles.lower()
-    scale = math.pi / 180.0 if angles == "degrees" else 1.0
+    degrees = angles == "degrees"
+    scale = math.pi / 180.0 if degrees else 1.0
 
     joints = d.get("joints")
     if joints is None:
@@ -341,10 +357,10 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
         raise DHError(f"joints: expected a list of rows, got {type(joints).__name__}")
     if not joints:
         raise DHError("joints: a DH table needs at least one row")
-    if len(joints) > MAX_DH_ROWS:
-        raise DHError(f"joints: {len(joints)} rows; at most {MAX_DH_ROWS} are allowed")
-    reserved = _reserved_names(len(joints), convention)
-    rows: list[DHRow] = []
+    if len(joints) > max_rows:
+        raise DHError(f"joints: {len(joints)} rows; {rows_limit or f'at most {max_rows} are allowed'}")
+    taken = _reserved_names(len(joints), convention) if reserved else set()
+    rows: list[dict] = []
     seen: dict[str, int] = {}
     for i, raw in enumerate(joints):
         where = f"joints[{i}]"
@@ -364,27 +380,43 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
         for key in ("a", "alpha", "d", "theta"):
             if key not in raw:
                 raise DHError(f"{where}.{key}: missing")
-            values[key] = _number(raw[key], f"{where}.{key}")
-        values["alpha"] *= scale
-        values["theta"] *= scale
-        if "offset" in raw:
-            off = _number(raw["offset"], f"{where}.offset")
-            if jtype == "revolute":
-                values["theta"] += off * scale
-            else:
-                values["d"] += off
+            values[key] = entry(raw[key], f"{where}.{key}", key in ("alpha", "theta"), degrees)
+        if "offset" in raw:  # added to the joint variable's column
+            values["theta" if jtype == "revolute" else "d"] += entry(raw["offset"], f"{where}.offset",
+                                                                     jtype == "revolute", degrees)
         jname = _name(raw.get("name", f"joint_{i + 1}"), f"{where}.name")
         if jname in seen:
             raise DHError(f"{where}.name: {jname!r} is also the name of joints[{seen[jname]}]")
-        if jname in reserved:
+        if jname in taken:
             raise DHError(f"{where}.name: {jname!r} is reserved for a link or fixed joint of the generated URDF")
         seen[jname] = i
         limits = _limits(raw.get("limits"), f"{where}.limits", scale if jtype == "revolute" else 1.0)
-        rows.append(DHRow(type=jtype, name=jname, limits=limits, **values))
+        rows.append(dict(type=jtype, name=jname, limits=limits, **values))
     name = _name(d.get("name", DEFAULT_ROBOT_NAME), "name")
     base = _rigid(d["base"], "base", scale) if "base" in d else frozen_array(np.eye(4))
     tool = _rigid(d["tool"], "tool", scale) if "tool" in d else frozen_array(np.eye(4))
-    return DHTable(name=name, convention=convention, rows=tuple(rows), base=base, tool=tool, angles=angles)
+    return TableFields(name=name, convention=convention, angles=angles, rows=tuple(rows), base=base, tool=tool)
+
+
+def table_from_dict(d: Mapping[str, Any]) -> DHTable:
+    """Validate a table in the JSON shape of ``POST /models/dh`` and build a :class:`DHTable`.
+
+    Keys: ``name``, ``convention`` (``standard``|``modified``, default standard),
+    ``angles`` (``radians``|``degrees``, default radians), ``joints`` (rows with ``type``,
+    ``a``, ``alpha``, ``d``, ``theta``, optional ``name``, ``limits`` and ``offset``; an
+    ``offset`` is added to the joint variable's column), ``base`` and ``tool`` (4x4 or
+    ``{xyz, rpy}``). ``None`` values count as absent.
+
+    Raises :class:`~kinematics.errors.DHError` naming the field, e.g.
+    ``joints[2].alpha: 'abc' is not a number``.
+
+    >>> t = table_from_dict({"joints": [{"type": "revolute", "a": 1, "alpha": 0, "d": 0, "theta": 0}]})
+    >>> (t.convention, t.rows[0].name, t.rows[0].a)
+    ('standard', 'joint_1', 1.0)
+    """
+    f = read_table(d)
+    return DHTable(name=f.name, convention=f.convention, rows=tuple(DHRow(**r) for r in f.rows), base=f.base,
+                   tool=f.tool, angles=f.angles)
 
 
 def _plain(x: float) -> float | int:
