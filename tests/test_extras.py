@@ -153,3 +153,15 @@ def test_serve_without_the_service_extra_says_what_to_install():
             print(json.dumps({"message": str(exc)}))
     """)
     assert "pip install 'kinematics-service[service]'" in out["message"]
+
+
+def test_the_service_answers_a_missing_extra_with_501_naming_the_install():
+    import orjson
+
+    from app.errors import kinematics_problem
+    from kinematics.errors import MissingExtraError
+
+    response = kinematics_problem(MissingExtraError.of("verify", "verification against Pinocchio", "pinocchio"))
+    body = orjson.loads(response.body)
+    assert response.status_code == 501 and body["type"].endswith(":extra-not-installed")
+    assert "pip install 'kinematics-service[verify]'" in body["detail"]
