@@ -166,7 +166,7 @@ class MissingExtraError(KinematicsError, ImportError):
     :class:`ImportError`, so code that treats a missing module as absent still does.
 
     >>> str(MissingExtraError.of("verify", "verification against Pinocchio", "pinocchio"))
-    "verification against Pinocchio needs the optional dependency 'pinocchio', which is not installed: pip install 'kinematics-service[verify]'"
+    "verification against Pinocchio: the optional dependency 'pinocchio' is not installed; run pip install 'kinematics-service[verify]'"
     """
 
     def __init__(self, message: str, *, extra: str, module: str | None = None):
@@ -177,8 +177,8 @@ class MissingExtraError(KinematicsError, ImportError):
     @classmethod
     def of(cls, extra: str, feature: str, module: str) -> "MissingExtraError":
         """The error for ``feature``, which imports ``module`` from the extra ``extra``."""
-        return cls(f"{feature} needs the optional dependency {module!r}, which is not installed: "
-                   f"{install_command(extra)}", extra=extra, module=module)
+        return cls(f"{feature}: the optional dependency {module!r} is not installed; run {install_command(extra)}",
+                   extra=extra, module=module)
 
 
 def install_command(extra: str) -> str:

@@ -145,14 +145,16 @@ def test_the_command_line_and_the_client_need_no_extra():
 
 def test_serve_without_the_service_extra_says_what_to_install():
     out = _lean("""
-        from kinematics.errors import MissingExtraError
-        from app.cli import run_uvicorn
-        try:
-            run_uvicorn(host="127.0.0.1", port=1, workers=1, shutdown_timeout=1)
-        except MissingExtraError as exc:
-            print(json.dumps({"message": str(exc)}))
+        import contextlib, io
+        from kinematics.cli import main
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            code = main(["serve", "--port", "8799"])
+        print(json.dumps({"code": code, "message": err.getvalue()}))
     """)
-    assert "pip install 'kinematics-service[service]'" in out["message"]
+    assert out["code"] == 2, out
+    assert "the REST service (kinematics serve): the optional dependency 'fastapi' is not installed; " \
+           "run pip install 'kinematics-service[service]'" in out["message"]
 
 
 def test_the_service_answers_a_missing_extra_with_501_naming_the_install():
