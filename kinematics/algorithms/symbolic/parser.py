@@ -18,7 +18,6 @@ import sympy as sp
 
 from ...errors import DHError, SymbolicError
 from ...io import dh_table as dh
-from ...tolerances import MAX_ABS_COORDINATE
 
 #: most moving joints on a chain whose closed forms are derived
 MAX_SYMBOLIC_JOINTS = 24
@@ -266,6 +265,8 @@ class SymbolicDHTable:
 
 
 def _entry(value: Any, where: str, angle: bool, degrees: bool) -> sp.Expr:
+    """One entry of a symbolic table (a :data:`kinematics.io.dh_table.Entry`): a number, checked as
+    the numeric tables check it and made exact where it is simple, or an expression of parameters."""
     if isinstance(value, bool) or value is None:
         raise DHError(f"{where}: expected a number or an expression, got {value!r}")
     number = None
@@ -279,9 +280,7 @@ def _entry(value: Any, where: str, angle: bool, degrees: bool) -> sp.Expr:
     else:
         raise DHError(f"{where}: expected a number or an expression, got {type(value).__name__}")
     if number is not None:
-        v = float(number)
-        if not math.isfinite(v) or abs(v) > MAX_ABS_COORDINATE:
-            raise DHError(f"{where}: {value!r} is not finite or beyond +-{MAX_ABS_COORDINATE:g}")
+        v = dh._number(number, where)  # finite, within the bounds of every table entry
         if angle and degrees:
             short = _decimal(v) if v != 0 else sp.Integer(0)
             return (short if short is not None else sp.Float(v, 17)) * sp.pi / 180
