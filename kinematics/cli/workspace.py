@@ -20,8 +20,9 @@ import time
 import numpy as np
 
 from .. import api
-from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, SAMPLES_PER_CELL
+from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
 from ..errors import MissingExtraError
+from ..usecases import Query
 from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .pipeline import ModelLoadError, _fail, _model_options, load_model
 from .progress import progress
@@ -35,7 +36,9 @@ OUTPUT_HELP = """output (-o, by extension):
 manipulability (--measure): the product of the singular values of the link's local_world_aligned
 Jacobian over the joints on its path, 6 x k (pose, default) or its 3 position rows (position).
 volume: occupied cells of edge --voxel (default: about N/%d cells in the bounding box),
-extrapolated as 2 V(h) - V(2h); its convergence is the same estimate over the first N/4, N/2, N.""" % SAMPLES_PER_CELL
+extrapolated as 2 V(h) - V(2h) where the samples are dense for h (at least %d per occupied cell), else
+the occupied cells' volume, flagged "not converged" with advice; its convergence is the same estimate over
+the first N/4, N/2, N.""" % (SAMPLES_PER_CELL, MIN_SAMPLES_PER_CELL)
 
 
 def register(sub) -> None:
@@ -87,11 +90,12 @@ def run_workspace(args) -> int:
         if len(point) != 3:
             return _fail("workspace", f"--point: {args.point!r}; give three comma-separated numbers x,y,z", EXIT_USAGE)
     link = args.link or (model.leaf_links[0] if model.leaf_links else model.root)
-    api.resolve_links(model, [link])  # unknown link: exit 2 before sampling
+    query = Query(model, link=link, point=point)
+    query.frame_link()  # unknown link: exit 2 before sampling
     t0 = time.perf_counter()
     bar = progress(total=args.samples, desc="workspace", unit="sample", unit_scale=True)
     try:
-        ws = api.workspace(model, link, samples=args.samples, point=point, voxel=args.voxel, measure=args.measure,
+        ws = api.workspace(query, samples=args.samples, voxel=args.voxel, measure=args.measure,
                            random_seed=args.seed, progress=bar.update)
     finally:
         bar.close()
@@ -118,7 +122,8 @@ def summary(name: str, ws, elapsed: float) -> str:
         f"  bounding box  min [{lo[0]:.4f}, {lo[1]:.4f}, {lo[2]:.4f}]  max [{hi[0]:.4f}, {hi[1]:.4f}, {hi[2]:.4f}] m",
         f"  reach         {ws.reach:.4f} m (from the root)",
         f"  dimension     {ws.dimension}" + (" (planar)" if ws.dimension == 2 else ""),
-        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}",
+        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}"
+        + ("" if ws.converged else f"\n  not converged: {ws.advice}"),
         f"  voxel         {ws.voxel:.4g} m (cells {', '.join(f'{c:.4g}' for c in ws.cell)}; "
         f"{ws.voxel_centers.shape[0]} occupied)",
         f"  manipulability ({ws.measure}) min {M.min():.4g}, mean {M.mean():.4g}, max {M.max():.4g}",

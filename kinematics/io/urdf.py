@@ -157,9 +157,28 @@ def _is_xacro_namespace(ns: str | None) -> bool:
     return ns is not None and "xacro" in ns.lower()
 
 
+def _substitution(value: str) -> bool:
+    return "${" in value or "$(" in value
+
+
+def _mesh_file_names(root: ET.Element) -> dict[int, str]:
+    """``id(mesh element) -> where it is`` (``link 'x' <visual> <mesh filename>``) for every
+    ``<mesh>`` of a link's ``<visual>`` / ``<collision>`` geometry."""
+    found: dict[int, str] = {}
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for el in link.findall(kind):
+                for mesh in el.findall("geometry/mesh"):
+                    found[id(mesh)] = f"link {link.get('name')!r} <{kind}> <mesh filename>"
+    return found
+
+
 def xacro_use(root: ET.Element) -> str | None:
     """What makes the document xacro rather than URDF (an element or attribute in the xacro
-    namespace, a ``${...}`` expression or ``$(...)`` substitution), or None. ``xmlns:xacro`` declared but unused is URDF."""
+    namespace, a ``${...}`` expression or ``$(...)`` substitution), or None. ``xmlns:xacro`` declared
+    but unused is URDF, and so is a substitution left in a ``<mesh filename>`` (mesh files are never
+    opened: :func:`mesh_substitutions` names them for the model's warnings)."""
+    meshes = _mesh_file_names(root)
     for el in root.iter():
         if not isinstance(el.tag, str):
             continue
@@ -168,9 +187,24 @@ def xacro_use(root: ET.Element) -> str | None:
         for name, value in el.attrib.items():
             if _is_xacro_namespace(_namespace(name)):
                 return f"attribute xacro:{name.split('}', 1)[1]} on <{el.tag}>"
-            if "${" in value or "$(" in value:
-                return f"the expression {value[:60]!r} in <{el.tag} {name}>"
+            if _substitution(value) and not (name == "filename" and id(el) in meshes):
+                return f"expression {value[:60]!r} in <{el.tag} {name}>"
     return None
+
+
+def mesh_substitutions(root: ET.Element) -> list[str]:
+    """Where a ``$(...)`` / ``${...}`` is left in a ``<mesh filename>``, with the text:
+    ``link 'x' <visual> <mesh filename="$(find pkg)/m.stl">``."""
+    meshes = _mesh_file_names(root)
+    out = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for el in link.findall(kind):
+                for mesh in el.findall("geometry/mesh"):
+                    value = mesh.get("filename", "")
+                    if _substitution(value):
+                        out.append(f"{meshes[id(mesh)][:-1]}={value[:80]!r}>")
+    return out
 
 
 def _check_document(root: ET.Element, max_links: int) -> None:
@@ -419,7 +453,11 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
             "which expands it); it is never read as a URDF with its macros left out"
         )
     _check_document(root_el, max_links)
+    substituted = mesh_substitutions(root_el)
     cleaned, ignored = _sanitise(root_el, data)
+    if substituted:
+        ignored.append(f"{len(substituted)} mesh file name(s) keep a xacro substitution ({_names(substituted)}): "
+                       "left as written -- mesh files are never opened, and the kinematics do not use them")
 
     import yourdfpy  # heavy import, kept local
 
