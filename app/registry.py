@@ -92,7 +92,7 @@ DH_CANONICAL_ANGLES = "radians"
 @dataclass(frozen=True)
 class Description:
     """A kind of model description stored as canonical JSON: ``<prefix><16 hex><suffix>``; the
-    model's ``source`` is ``kind`` (:func:`kinematics.api.model_from_description` reads it)."""
+    model's ``source`` is ``kind`` (:func:`kinematics.usecases.model_from_description` reads it)."""
 
     kind: str
     prefix: str

@@ -1,6 +1,6 @@
 """``kinematics workspace``: sample the reachable set of a link, save the cloud, plot the dexterity map.
 
-Samples configurations uniformly within the joint limits (:func:`kinematics.api.workspace`),
+Samples configurations uniformly within the joint limits (:func:`kinematics.usecases.workspace`),
 prints the summary (bounding box, reach, volume or area and its convergence, cell size,
 manipulability range), writes the cloud (``-o``: ``.npz`` with the dexterity map, or ``.csv``
 rows ``x,y,z,manipulability``) and draws (``--plot``, matplotlib's Agg backend) three orthogonal
@@ -23,8 +23,8 @@ from .. import api
 from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
 from ..errors import MissingExtraError
 from ..usecases import Query
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _fail, _model_options, load_model
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import _fail, _model_options, model_or_exit_code, parse_point
 from .progress import progress
 
 OUTPUT_HELP = """output (-o, by extension):
@@ -70,10 +70,9 @@ def register(sub) -> None:
 
 
 def run_workspace(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("workspace", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "workspace")
+    if isinstance(model, int):
+        return model
     if args.samples < 1:
         return _fail("workspace", "--samples must be at least 1", EXIT_USAGE)
     if args.voxel is not None and not (math.isfinite(args.voxel) and args.voxel > 0):
@@ -81,14 +80,10 @@ def run_workspace(args) -> int:
     for path, exts in ((args.output, (".npz", ".csv")), (args.plot, (".png",))):
         if path is not None and os.path.splitext(path)[1].lower() not in exts:
             return _fail("workspace", f"{path}: give a file ending in {' or '.join(exts)}", EXIT_USAGE)
-    point = None
-    if args.point is not None:
-        try:
-            point = [float(v) for v in args.point.split(",")]
-        except ValueError:
-            point = []
-        if len(point) != 3:
-            return _fail("workspace", f"--point: {args.point!r}; give three comma-separated numbers x,y,z", EXIT_USAGE)
+    try:
+        point = parse_point(args.point)
+    except ValueError as exc:
+        return _fail("workspace", str(exc), EXIT_USAGE)
     link = args.link or (model.leaf_links[0] if model.leaf_links else model.root)
     query = Query(model, link=link, point=point)
     query.frame_link()  # unknown link: exit 2 before sampling

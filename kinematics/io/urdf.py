@@ -28,9 +28,6 @@ from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE
 
 #: Default cap on the number of links (and of joints) in one model.
 DEFAULT_MAX_LINKS = 10_000
-#: Joint types URDF knows but this product refuses (none: floating and planar joints are read since
-#: the second wave, in Pinocchio's layout).
-UNSUPPORTED_TYPES: frozenset[str] = frozenset()
 #: The only plane normal a planar joint may have: Pinocchio's URDF reader makes every planar joint
 #: a JointModelPlanar, which moves in the x-y plane of the joint frame whatever <axis> says (and the
 #: URDF default axis is x), so any other axis would silently disagree with the reference.
@@ -221,28 +218,9 @@ def _check_document(root: ET.Element, max_links: int) -> None:
         raise ModelTooLargeError(
             f"robot has {len(links)} links and {len(joints)} joints; the limit is {max_links}"
         )
-    link_names: set[str] = set()
-    for i, el in enumerate(links):
-        name = el.get("name")
-        if not name:
-            raise URDFError(f"<link> number {i + 1} has no 'name' attribute")
-        if name in link_names:
-            raise URDFError(f"duplicate link name {name!r}")
-        link_names.add(name)
-    joint_names: set[str] = set()
-    for i, el in enumerate(joints):
-        name = el.get("name")
-        if not name:
-            raise URDFError(f"<joint> number {i + 1} has no 'name' attribute")
-        if name in joint_names:
-            raise URDFError(f"duplicate joint name {name!r}")
-        joint_names.add(name)
+    link_names = set(_unique_names(links, "link"))
+    for el, name in zip(joints, _unique_names(joints, "joint")):
         jt = el.get("type")
-        if jt in UNSUPPORTED_TYPES:
-            raise UnsupportedJointError(
-                f"joint {name!r} is of type {jt!r}, which is not supported; "
-                "give the root link's world pose in the request instead of a floating joint"
-            )
         if jt not in SUPPORTED_TYPES:
             raise URDFError(f"joint {name!r} has unknown type {jt!r}")
         for tag in ("parent", "child"):
@@ -378,6 +356,21 @@ def _sanitise(root: ET.Element, data: bytes) -> tuple[bytes, list[str]]:
         return ET.tostring(root, encoding="utf-8"), warnings
     except RecursionError:
         raise URDFError("URDF is nested too deeply to be read") from None
+
+
+def _unique_names(elements, tag: str) -> list[str]:
+    """The ``name`` of each ``<tag>`` element, in order; a missing or repeated name raises :class:`URDFError`."""
+    names: list[str] = []
+    seen: set[str] = set()
+    for i, el in enumerate(elements):
+        name = el.get("name")
+        if not name:
+            raise URDFError(f"<{tag}> number {i + 1} has no 'name' attribute")
+        if name in seen:
+            raise URDFError(f"duplicate {tag} name {name!r}")
+        seen.add(name)
+        names.append(name)
+    return names
 
 
 def _check_tree(link_names: Iterable[str], joints: list[Joint]) -> str:
