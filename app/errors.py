@@ -34,6 +34,7 @@ from kinematics.errors import (
     JointValueError,
     KinematicsError,
     LimitError,
+    MissingExtraError,
     ModelTooLargeError,
     NoDHFormError,
     PoEError,
@@ -95,6 +96,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (PoseError, 422, "invalid-pose", "Invalid pose"),
     (CalibrationError, 422, "invalid-calibration-data", "Measurements a calibration cannot use"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
+    (MissingExtraError, 501, "extra-not-installed", "An optional dependency of the server is not installed"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )
 
@@ -102,6 +104,7 @@ _HTTP_TITLES = {
     400: "Bad request", 401: "Authentication required", 403: "Forbidden", 404: "Not found",
     405: "Method not allowed", 406: "Not acceptable", 409: "Conflict", 413: "Content too large",
     415: "Unsupported media type", 422: "Unprocessable content", 500: "Internal server error",
+    501: "Not implemented",
 }
 
 _QUOTED = {

@@ -40,7 +40,7 @@ import numpy as np
 from . import api
 from .engine.parallel import threads as _threads
 from .engine.poe import compile_model
-from .errors import KinematicsError
+from .errors import KinematicsError, MissingExtraError
 from .io.dh_table import load_table, table_to_urdf
 from .io.parquet import TIME_COLUMN, WRITE_OPTIONS, result_columns
 from .io.urdf import parse_urdf
@@ -56,7 +56,7 @@ def _dask():
     try:
         import dask.dataframe as dd
     except ImportError:  # pragma: no cover - the `dask` extra
-        raise KinematicsError("distributed runs need dask: pip install 'kinematics-service[dask]'") from None
+        raise MissingExtraError.of("dask", "distributed runs", "dask") from None
     return dd
 
 

@@ -168,6 +168,36 @@ class CalibrationError(KinematicsError):
         self.field = field
 
 
+#: the PyPI distribution of this library (what ``pip install`` names)
+DISTRIBUTION = "kinematics-service"
+
+
+class MissingExtraError(KinematicsError, ImportError):
+    """A feature whose optional dependencies are not installed: ``extra`` names the extra of
+    ``pyproject.toml`` that brings them, and the message the ``pip install`` to run. Also an
+    :class:`ImportError`, so code that treats a missing module as absent still does.
+
+    >>> str(MissingExtraError.of("verify", "verification against Pinocchio", "pinocchio"))
+    "verification against Pinocchio: the optional dependency 'pinocchio' is not installed; run pip install 'kinematics-service[verify]'"
+    """
+
+    def __init__(self, message: str, *, extra: str, module: str | None = None):
+        super().__init__(message)
+        self.extra = extra
+        self.module = module
+
+    @classmethod
+    def of(cls, extra: str, feature: str, module: str) -> "MissingExtraError":
+        """The error for ``feature``, which imports ``module`` from the extra ``extra``."""
+        return cls(f"{feature}: the optional dependency {module!r} is not installed; run {install_command(extra)}",
+                   extra=extra, module=module)
+
+
+def install_command(extra: str) -> str:
+    """The command that installs an extra: ``pip install 'kinematics-service[EXTRA]'``."""
+    return f"pip install '{DISTRIBUTION}[{extra}]'"
+
+
 def did_you_mean(name: object, valid, what: str = "names", limit: int = 10) -> str:
     """A suffix for "unknown name" messages: the closest valid names and a truncated list of them.
 

@@ -8,7 +8,6 @@ import time
 from ..io.catalogue import default_catalogue
 from ..io.floating import with_floating_base
 from ..tolerances import AGREEMENT_TOLERANCE
-from ..verify.parity import check_model, summary_line
 from .progress import progress
 
 
@@ -30,6 +29,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..verify.parity import check_model, summary_line  # Pinocchio: the `verify` extra
+
     cat = default_catalogue()
     ids = args.model or cat.ids()
     for mid in ids:

@@ -73,7 +73,7 @@ def register(sub) -> None:
         epilog=TARGET_HELP + "\n\nexamples:\n"
         "  kinematics ik --model panda --link panda_link8 targets.csv -o q.csv\n"
         "  kinematics ik --model ur5 --link tool0 T.npy -o q.npy --restarts 100 --verify\n"
-        "  kinematics ik --dh kinematics/io/presets/planar_2r.yaml --link tool --mode position xy.csv\n\n"
+        "  kinematics ik --dh models/planar_2r.yaml --link tool --mode position xy.csv\n\n"
         + EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -19,9 +19,8 @@ from .. import api
 from ..usecases import Query
 from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
-from ..io.trajectory import (
-    CHUNK_ROWS, FORMATS, ResultWriter, RowSampler, TrajectoryFileError, format_of, open_joint_rows, open_target_rows,
-)
+from ..io.result_files import ResultWriter, RowSampler
+from ..io.trajectory import CHUNK_ROWS, FORMATS, TrajectoryFileError, format_of, open_joint_rows, open_target_rows
 from ..model.robot import RobotModel
 from ..spatial.reference import REFERENCES, Reference
 from ..tolerances import AGREEMENT_TOLERANCE

@@ -16,7 +16,8 @@ import numpy as np
 from .. import api
 from ..usecases import Query
 from ..io.poses import tool_offset
-from ..io.trajectory import ResultWriter, RowSampler, open_state_rows
+from ..io.result_files import ResultWriter, RowSampler
+from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
 from . import EXIT_OK, EXIT_USAGE
 from .pipeline import (_endpoints, _fail, _io_options, _model_options, _quietly, _resolve_links, _timing, _verdict,

@@ -20,8 +20,9 @@ import time
 import numpy as np
 
 from .. import api
-from ..usecases import Query
 from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
+from ..errors import MissingExtraError
+from ..usecases import Query
 from . import EXIT_OK, EXIT_USAGE
 from .pipeline import _fail, _model_options, model_or_exit_code, parse_point
 from .progress import progress
@@ -174,7 +175,10 @@ def _slice(ws, axis: int) -> tuple[np.ndarray, list[float]] | None:
 def plot(ws, path: str, title: str = "") -> None:
     """Three orthogonal slices of the dexterity map through the root (planar: the plane) and the
     convergence of the volume (area) estimate, as a PNG (matplotlib, Agg backend)."""
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise MissingExtraError.of("plot", "the workspace plot (--plot)", "matplotlib") from exc
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

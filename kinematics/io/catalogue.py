@@ -1,5 +1,7 @@
-"""The bundled catalogue: every URDF of ``example-robot-data`` plus the DH presets shipped in
-``kinematics/io/presets/`` (package data: an installed wheel has them).
+"""The bundled catalogue: every URDF of ``example-robot-data`` (the ``catalogue`` extra) plus the
+DH presets of the top-level ``models/`` directory (in an installed wheel, the package data
+``kinematics/models/``). Without example-robot-data the catalogue holds only the presets, and
+says so (:attr:`Catalogue.notes`, and the message of an unknown id).
 
 Ids are short, readable and stable: the file's stem, lower-cased, with ``_robot`` dropped
 (``ur5_robot.urdf`` -> ``ur5``) and a few explicit names where stems collide
@@ -16,7 +18,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import UnknownModelError, did_you_mean
+from ..errors import UnknownModelError, did_you_mean, install_command
 from ..model.robot import RobotModel
 from .dh_table import load_table, model_from_table
 from .urdf import load_urdf
@@ -34,12 +36,26 @@ ID_OVERRIDES = {
     "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf": "g1_29dof_with_hand",
 }
 
+_PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def _presets_dir() -> Path:
+    """``kinematics/models`` of an installed wheel, else ``models/`` next to the package (a source
+    tree: a checkout or an editable install)."""
+    installed = _PACKAGE / "models"
+    return installed if installed.is_dir() else _PACKAGE.parent / "models"
+
+
 #: where the DH presets live (overridable with KIN_MODELS_DIR)
-DEFAULT_PRESETS_DIR = Path(__file__).resolve().parent / "presets"
+DEFAULT_PRESETS_DIR = _presets_dir()
+#: what the catalogue says when example-robot-data is not installed
+NO_EXAMPLE_ROBOT_DATA = ("example-robot-data is not installed, so the catalogue holds only the DH presets; "
+                         f"for its URDFs (ur5, panda, talos, ...): {install_command('catalogue')}")
 
 
 def example_robot_data_dir() -> Path | None:
-    """``.../cmeel.prefix/share/example-robot-data/robots`` of the installed package, if any."""
+    """``.../cmeel.prefix/share/example-robot-data/robots`` of the installed package (the
+    ``catalogue`` extra), or None when it is not installed."""
     candidates = []
     for key in ("purelib", "platlib"):
         candidates.append(Path(sysconfig.get_paths()[key]) / "cmeel.prefix/share/example-robot-data/robots")
@@ -83,7 +99,12 @@ class Catalogue:
 
     def __init__(self, robots_dir: Path | None = None, presets_dir: Path | None = None):
         self.entries: dict[str, CatalogueEntry] = {}
-        robots_dir = robots_dir if robots_dir is not None else example_robot_data_dir()
+        #: what a user should know about this catalogue (a missing example-robot-data)
+        self.notes: list[str] = []
+        if robots_dir is None:
+            robots_dir = example_robot_data_dir()
+            if robots_dir is None:
+                self.notes.append(NO_EXAMPLE_ROBOT_DATA)
         if robots_dir is not None:
             for path in sorted(Path(robots_dir).rglob("*.urdf")):
                 rel = path.relative_to(robots_dir).as_posix()
@@ -112,8 +133,8 @@ class Catalogue:
         try:
             return self.entries[model_id]
         except KeyError:
-            raise UnknownModelError(f"unknown model {model_id!r}"
-                                    + did_you_mean(model_id, self.entries, "bundled model ids")) from None
+            raise UnknownModelError(f"unknown model {model_id!r}" + did_you_mean(model_id, self.entries, "bundled model ids")
+                                    + "".join(f" ({note})" for note in self.notes)) from None
 
     def get(self, model_id: str) -> RobotModel:
         """The model of ``model_id``, parsed on first use (raises UnknownModelError, URDFError)."""

@@ -52,7 +52,7 @@ import json
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -302,6 +302,92 @@ def _reserved_names(n: int, convention: str) -> set[str]:
     return names
 
 
+#: ``entry(value, where, angle, degrees)``: one table entry (``a``, ``alpha``, ``d``, ``theta``,
+#: ``offset``) as the caller keeps it (a float in radians here; a sympy expression for closed forms)
+Entry = Callable[[Any, str, bool, bool], Any]
+
+
+@dataclass(frozen=True)
+class TableFields:
+    """The validated fields of a table in the JSON shape of ``POST /models/dh``, its entries made
+    by an :data:`Entry` (:func:`read_table`): ``rows`` are dicts of ``type``, ``name``, ``limits``
+    (radians for revolute joints), ``a``, ``alpha``, ``d``, ``theta`` (offsets added)."""
+
+    name: str
+    convention: str
+    angles: str
+    rows: tuple[dict, ...]
+    base: np.ndarray
+    tool: np.ndarray
+
+
+def _numeric_entry(value: Any, where: str, angle: bool, degrees: bool) -> float:
+    v = _number(value, where)
+    return v * (math.pi / 180.0) if angle and degrees else v
+
+
+def read_table(d: Mapping[str, Any], entry: Entry = _numeric_entry, *, max_rows: int = MAX_DH_ROWS,
+               rows_limit: str | None = None, reserved: bool = True) -> TableFields:
+    """Validate the fields of a DH table (see :func:`table_from_dict`), each entry made by
+    ``entry``: the one validation of the numeric tables and of the symbolic ones
+    (:func:`kinematics.algorithms.symbolic.symbolic_table_from_dict`). ``max_rows`` bounds the
+    rows (``rows_limit`` says why in the message); ``reserved`` refuses joint names the
+    generated URDF uses for its links and fixed joints."""
+    d = fields(d, _TABLE_KEYS, DHError, "a DH table")
+    convention = d.get("convention", "standard")
+    if not isinstance(convention, str) or convention.lower() not in CONVENTIONS:
+        raise DHError(f"convention: {convention!r} is not one of {list(CONVENTIONS)}")
+    convention = convention.lower()
+    angles = d.get("angles", "radians")
+    if not isinstance(angles, str) or angles.lower() not in ANGLE_UNITS:
+        raise DHError(f"angles: {angles!r} is not one of {list(ANGLE_UNITS)}")
+    angles = angles.lower()
+    degrees = angles == "degrees"
+    scale = math.pi / 180.0 if degrees else 1.0
+
+    joints = d.get("joints")
+    if joints is None:
+        raise DHError("joints: missing (a list of rows)")
+    if not isinstance(joints, (list, tuple)):
+        raise DHError(f"joints: expected a list of rows, got {type(joints).__name__}")
+    if not joints:
+        raise DHError("joints: a DH table needs at least one row")
+    if len(joints) > max_rows:
+        raise DHError(f"joints: {len(joints)} rows; {rows_limit or f'at most {max_rows} are allowed'}")
+    taken = _reserved_names(len(joints), convention) if reserved else set()
+    rows: list[dict] = []
+    seen: dict[str, int] = {}
+    for i, raw in enumerate(joints):
+        where = f"joints[{i}]"
+        raw = fields(raw, _ROW_KEYS, DHError, "a row", where)
+        jtype = raw.get("type")
+        if jtype is None:
+            raise DHError(f"{where}.type: missing (revolute or prismatic)")
+        if not isinstance(jtype, str) or jtype.lower() not in _TYPE_ALIASES:
+            raise DHError(f"{where}.type: {jtype!r} is not one of {list(JOINT_TYPES)} (or R, P)")
+        jtype = _TYPE_ALIASES[jtype.lower()]
+        values = {}
+        for key in ("a", "alpha", "d", "theta"):
+            if key not in raw:
+                raise DHError(f"{where}.{key}: missing")
+            values[key] = entry(raw[key], f"{where}.{key}", key in ("alpha", "theta"), degrees)
+        if "offset" in raw:  # added to the joint variable's column
+            values["theta" if jtype == "revolute" else "d"] += entry(raw["offset"], f"{where}.offset",
+                                                                     jtype == "revolute", degrees)
+        jname = _name(raw.get("name", f"joint_{i + 1}"), f"{where}.name")
+        if jname in seen:
+            raise DHError(f"{where}.name: {jname!r} is also the name of joints[{seen[jname]}]")
+        if jname in taken:
+            raise DHError(f"{where}.name: {jname!r} is reserved for a link or fixed joint of the generated URDF")
+        seen[jname] = i
+        limits = _limits(raw.get("limits"), f"{where}.limits", scale if jtype == "revolute" else 1.0)
+        rows.append(dict(type=jtype, name=jname, limits=limits, **values))
+    name = _name(d.get("name", DEFAULT_ROBOT_NAME), "name")
+    base = _rigid(d["base"], "base", scale) if "base" in d else frozen_array(np.eye(4))
+    tool = _rigid(d["tool"], "tool", scale) if "tool" in d else frozen_array(np.eye(4))
+    return TableFields(name=name, convention=convention, angles=angles, rows=tuple(rows), base=base, tool=tool)
+
+
 def table_from_dict(d: Mapping[str, Any]) -> DHTable:
     """Validate a table in the JSON shape of ``POST /models/dh`` and build a :class:`DHTable`.
 
@@ -318,63 +404,9 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
     >>> (t.convention, t.rows[0].name, t.rows[0].a)
     ('standard', 'joint_1', 1.0)
     """
-    d = fields(d, _TABLE_KEYS, DHError, "a DH table")
-    convention = d.get("convention", "standard")
-    if not isinstance(convention, str) or convention.lower() not in CONVENTIONS:
-        raise DHError(f"convention: {convention!r} is not one of {list(CONVENTIONS)}")
-    convention = convention.lower()
-    angles = d.get("angles", "radians")
-    if not isinstance(angles, str) or angles.lower() not in ANGLE_UNITS:
-        raise DHError(f"angles: {angles!r} is not one of {list(ANGLE_UNITS)}")
-    angles = angles.lower()
-    scale = math.pi / 180.0 if angles == "degrees" else 1.0
-
-    joints = d.get("joints")
-    if joints is None:
-        raise DHError("joints: missing (a list of rows)")
-    if not isinstance(joints, (list, tuple)):
-        raise DHError(f"joints: expected a list of rows, got {type(joints).__name__}")
-    if not joints:
-        raise DHError("joints: a DH table needs at least one row")
-    if len(joints) > MAX_DH_ROWS:
-        raise DHError(f"joints: {len(joints)} rows; at most {MAX_DH_ROWS} are allowed")
-    reserved = _reserved_names(len(joints), convention)
-    rows: list[DHRow] = []
-    seen: dict[str, int] = {}
-    for i, raw in enumerate(joints):
-        where = f"joints[{i}]"
-        raw = fields(raw, _ROW_KEYS, DHError, "a row", where)
-        jtype = raw.get("type")
-        if jtype is None:
-            raise DHError(f"{where}.type: missing (revolute or prismatic)")
-        if not isinstance(jtype, str) or jtype.lower() not in _TYPE_ALIASES:
-            raise DHError(f"{where}.type: {jtype!r} is not one of {list(JOINT_TYPES)} (or R, P)")
-        jtype = _TYPE_ALIASES[jtype.lower()]
-        values = {}
-        for key in ("a", "alpha", "d", "theta"):
-            if key not in raw:
-                raise DHError(f"{where}.{key}: missing")
-            values[key] = _number(raw[key], f"{where}.{key}")
-        values["alpha"] *= scale
-        values["theta"] *= scale
-        if "offset" in raw:
-            off = _number(raw["offset"], f"{where}.offset")
-            if jtype == "revolute":
-                values["theta"] += off * scale
-            else:
-                values["d"] += off
-        jname = _name(raw.get("name", f"joint_{i + 1}"), f"{where}.name")
-        if jname in seen:
-            raise DHError(f"{where}.name: {jname!r} is also the name of joints[{seen[jname]}]")
-        if jname in reserved:
-            raise DHError(f"{where}.name: {jname!r} is reserved for a link or fixed joint of the generated URDF")
-        seen[jname] = i
-        limits = _limits(raw.get("limits"), f"{where}.limits", scale if jtype == "revolute" else 1.0)
-        rows.append(DHRow(type=jtype, name=jname, limits=limits, **values))
-    name = _name(d.get("name", DEFAULT_ROBOT_NAME), "name")
-    base = _rigid(d["base"], "base", scale) if "base" in d else frozen_array(np.eye(4))
-    tool = _rigid(d["tool"], "tool", scale) if "tool" in d else frozen_array(np.eye(4))
-    return DHTable(name=name, convention=convention, rows=tuple(rows), base=base, tool=tool, angles=angles)
+    f = read_table(d)
+    return DHTable(name=f.name, convention=f.convention, rows=tuple(DHRow(**r) for r in f.rows), base=f.base,
+                   tool=f.tool, angles=f.angles)
 
 
 def _plain(x: float) -> float | int:

@@ -31,7 +31,8 @@ from ..model.robot import RobotModel
 from ..spatial.rotations import matrix_to_quaternion
 from ..spatial.transforms import inverse_transform
 from ..tolerances import MAX_ABS_JOINT_VALUE
-from .trajectory import CHUNK_ROWS, AtomicOutput, TrajectoryFileError, drop_file, part_file, require_joint_columns
+from .result_files import AtomicOutput, drop_file, part_file
+from .trajectory import CHUNK_ROWS, TrajectoryFileError, require_joint_columns
 
 #: the ROS message type of joint states (rosbags' name, ROS 1 bags included)
 JOINT_STATE = "sensor_msgs/msg/JointState"

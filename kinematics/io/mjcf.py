@@ -43,7 +43,7 @@ import numpy as np
 from defusedxml import DefusedXmlException
 from defusedxml.ElementTree import fromstring as safe_fromstring
 
-from ..errors import MJCFError, ModelTooLargeError, UnsupportedJointError
+from ..errors import MissingExtraError, MJCFError, ModelTooLargeError, UnsupportedJointError
 from ..model.robot import RobotModel
 from ..tolerances import MAX_ABS_COORDINATE
 from ..spatial.rotations import matrix_to_rpy_exact, quaternion_to_matrix
@@ -192,11 +192,20 @@ def _esc(name: str) -> str:
     return name.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
 
 
+def _mujoco():
+    """The ``mujoco`` module (the ``mjcf`` extra), or :class:`~kinematics.errors.MissingExtraError`."""
+    try:
+        import mujoco
+    except ImportError as exc:
+        raise MissingExtraError.of("mjcf", "MJCF models", "mujoco") from exc
+    return mujoco
+
+
 def compiled_to_urdf(m, name: str, notes: list[str] | None = None) -> str:
     """URDF text of a compiled ``mujoco.MjModel`` (hinge, slide and fixed bodies; see the module doc);
     ``notes`` collects what a user should know (unbounded slides)."""
     notes = [] if notes is None else notes
-    import mujoco
+    mujoco = _mujoco()
 
     def body_name(b: int) -> str:
         return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or ("world" if b == 0 else f"body{b}")
@@ -297,7 +306,7 @@ def _quiet_mujoco(mujoco) -> None:
 
 def compile_mjcf(text: str | bytes, *, base_dir: os.PathLike | str | None = None, max_links: int = DEFAULT_MAX_LINKS):
     """``(mujoco.MjModel, warnings)`` of the MJCF reduced to its kinematics (no file is opened)."""
-    import mujoco
+    mujoco = _mujoco()
 
     data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
     root = _read(data, "MJCF document")

@@ -42,19 +42,8 @@ import numpy as np
 from ..model.robot import RobotModel
 from ..spatial.rotations import quaternion_to_matrix
 from ..tolerances import MAX_ABS_COORDINATE, MAX_ABS_JOINT_VALUE, RIGID_TOLERANCE
-from .trajectory import (
-    CHUNK_ROWS,
-    IK_STATUS_COLUMNS,
-    POSE_COLUMNS,
-    AtomicOutput,
-    TrajectoryFileError,
-    drop_file,
-    fk_columns,
-    fk_table,
-    jacobian_columns,
-    part_file,
-    require_joint_columns,
-)
+from .result_files import IK_STATUS_COLUMNS, AtomicOutput, drop_file, fk_columns, jacobian_columns, part_file
+from .trajectory import CHUNK_ROWS, POSE_COLUMNS, TrajectoryFileError, fk_table, require_joint_columns
 
 #: default name of the time column (read when present, carried to the output)
 TIME_COLUMN = "time"

@@ -22,6 +22,7 @@ Arguments (``<xacro:arg>``) are given as ``args={"name": "value"}``.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import re
@@ -36,7 +37,7 @@ from typing import Iterable, Mapping
 from defusedxml import DefusedXmlException
 from defusedxml.ElementTree import fromstring as safe_fromstring
 
-from ..errors import ExpansionLimitError, URDFError, XacroError
+from ..errors import ExpansionLimitError, MissingExtraError, URDFError, XacroError
 from ..model.robot import RobotModel
 from .urdf import DEFAULT_MAX_LINKS, parse_urdf
 
@@ -149,6 +150,16 @@ def _check_xml(data: bytes, what: str) -> None:
         raise XacroError(f"{what} is not well-formed XML: {exc}") from None
 
 
+def _require_xacro() -> None:
+    """The worker runs this interpreter: without the ``xacro`` extra it would fail there, unexplained."""
+    try:
+        found = importlib.util.find_spec("xacro") is not None
+    except (ImportError, ValueError):
+        found = False
+    if not found:
+        raise MissingExtraError.of("xacro", "xacro expansion", "xacro")
+
+
 def expand(entry: os.PathLike | str, *, roots: Iterable[os.PathLike | str], packages: Mapping[str, os.PathLike | str] | None = None,
            args: Mapping[str, object] | None = None, limits: SandboxLimits = DEFAULT_LIMITS) -> Expansion:
     """Expand the xacro file ``entry`` in the sandboxed worker; files may be read only under ``roots``.
@@ -156,6 +167,7 @@ def expand(entry: os.PathLike | str, *, roots: Iterable[os.PathLike | str], pack
     Raises :class:`~kinematics.errors.XacroError` (a message naming the file, the macro or the
     refused path) or :class:`~kinematics.errors.ExpansionLimitError` (over a limit).
     """
+    _require_xacro()
     entry = Path(entry).resolve()
     roots = [str(Path(r).resolve()) for r in roots]
     checked = check_args(args)

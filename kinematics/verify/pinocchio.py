@@ -24,10 +24,15 @@ import threading
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
+
+from ..errors import MissingExtraError, ReferenceUnavailableError
+
+try:
+    import pinocchio as pin
+except ImportError as exc:  # the `verify` extra
+    raise MissingExtraError.of("verify", "verification against Pinocchio", "pinocchio") from exc
 
 from ..engine.poe import compile_model
-from ..errors import ReferenceUnavailableError
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.reference import REFERENCES, Reference

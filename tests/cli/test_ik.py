@@ -18,7 +18,8 @@ import pytest
 from kinematics import compile_model, default_catalogue
 from kinematics.cli import main
 from kinematics.io.catalogue import DEFAULT_PRESETS_DIR
-from kinematics.io.trajectory import IK_STATUS_COLUMNS, open_target_rows, pose_rows
+from kinematics.io.result_files import IK_STATUS_COLUMNS
+from kinematics.io.trajectory import open_target_rows, pose_rows
 from kinematics.spatial.rotations import matrix_to_rpy, rotation_angle
 
 TOL = 1e-6

@@ -22,7 +22,7 @@ import pytest
 from kinematics import compile_model, default_catalogue, load_urdf
 from kinematics.cli import main
 from kinematics.io.catalogue import DEFAULT_PRESETS_DIR
-from kinematics.io.trajectory import NPY_HEADER_BYTES, RowSampler, npy_header
+from kinematics.io.result_files import NPY_HEADER_BYTES, RowSampler, npy_header
 from tests.paths import FIXTURES, REPO
 
 TOL = 1e-12

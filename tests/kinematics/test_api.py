@@ -270,11 +270,11 @@ def test_load_model_requires_exactly_one_source():
     with pytest.raises(KinematicsError, match="exactly one"):
         load_model(model_id="ur5", urdf=str(FIXTURES / "planar_2r.urdf"))
     with pytest.raises(KinematicsError, match="exactly one"):
-        load_model(urdf=str(FIXTURES / "planar_2r.urdf"), dh=str(REPO / "kinematics/io/presets/planar_2r.yaml"))
+        load_model(urdf=str(FIXTURES / "planar_2r.urdf"), dh=str(REPO / "models/planar_2r.yaml"))
 
 
 def test_load_model_from_dh_preset():
-    model = load_model(dh=str(REPO / "kinematics" / "io" / "presets" / "planar_2r.yaml"))
+    model = load_model(dh=str(REPO / "models" / "planar_2r.yaml"))
     assert model.dof == 2
     # a1 = 0.5, a2 = 0.4: the tool at (a1 c1 + a2 c12, a1 s1 + a2 s12, 0)
     q1, q2 = np.pi / 6, np.pi / 3

@@ -10,6 +10,13 @@
 This package is the only one that imports scipy (the ``calibration`` extra).
 """
 
+from ...errors import MissingExtraError
+
+try:
+    import scipy  # noqa: F401
+except ImportError as exc:  # the `calibration` extra
+    raise MissingExtraError.of("calibration", "kinematic calibration", "scipy") from exc
+
 from .estimation import Calibration, calibrate
 from .poses import PoseChoice, select_poses
 

@@ -1,0 +1,160 @@
+// Loading a model (GET /models/{id}, FK of all links), the catalogue picker and the links panel.
+// (A module of the model viewer; viewer.js is the entry point.)
+
+import { api, clearError, showError } from "./api.js";
+import { fillClosedFormTips } from "./closed-forms.js";
+import { $, API_KEY_STORAGE, FIT_DIRECTION, FK_LINKS_ALL, ROOT, state } from "./config.js";
+import { ik, resetIkTarget } from "./ik.js";
+import { applyPoses, buildRobot, buildSliders, fitCamera, highlightSelected, initialValue, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
+import { requestRender, resize } from "./scene.js";
+import { buildQdotInputs } from "./velocity.js";
+import { clearWorkspace } from "./workspace.js";
+
+// ---------------------------------------------------------------------------- links panel
+/** The leaf link farthest (in moving joints) from the root: a sensible first selection. */
+export function defaultLink(info) {
+  const parentJoint = Object.fromEntries(info.joints.map((j) => [j.child, j]));
+  const hasChild = new Set(info.joints.map((j) => j.parent));
+  let best = info.root;
+  let bestDepth = -1;
+  for (const link of info.links) {
+    if (hasChild.has(link)) continue;
+    let depth = 0;
+    for (let j = parentJoint[link]; j; j = parentJoint[j.parent]) if (j.type !== "fixed") depth += 1;
+    if (depth > bestDepth) { best = link; bestDepth = depth; }
+  }
+  return best;
+}
+
+// A <select> filled with the model's links (label(link): the text shown), the default link selected.
+export function fillLinkOptions(select, info, label = (link) => link) {
+  select.replaceChildren();
+  for (const link of info.links) {
+    const opt = document.createElement("option");
+    opt.value = link;
+    opt.textContent = label(link);
+    select.appendChild(opt);
+  }
+  select.value = defaultLink(info);
+}
+
+export function buildLinkList(info) {
+  fillLinkOptions($("link-list"), info);
+  state.selectedLink = defaultLink(info);
+}
+
+$("link-list").addEventListener("change", () => {
+  state.selectedLink = $("link-list").value;
+  highlightSelected();
+  if (ik.enabled) resetIkTarget();
+  requestRender();
+  showSelectedPose();
+});
+
+// ---------------------------------------------------------------------------- loading
+export async function loadCatalogue(selected) {
+  const models = await api("/models");
+  const list = Array.isArray(models) ? models : (models.models || []);
+  const picker = $("model-picker");
+  picker.replaceChildren();
+  const groups = {};
+  for (const m of list) {
+    const source = m.source || "other";
+    if (!groups[source]) {
+      groups[source] = document.createElement("optgroup");
+      groups[source].label = source;
+      picker.appendChild(groups[source]);
+    }
+    const opt = document.createElement("option");
+    opt.value = m.id;
+    opt.textContent = m.error ? `${m.id} (cannot be loaded)` : `${m.id} (${m.dof} dof)`;
+    if (m.error) { opt.disabled = true; opt.title = m.error; }
+    groups[source].appendChild(opt);
+  }
+  if (selected) picker.value = selected;
+  return list;
+}
+
+export async function loadModel(id, { push = true } = {}) {
+  const token = nextLoadToken();
+  state.ready = false;
+  clearError();
+  try {
+    const info = await api(`/models/${encodeURIComponent(id)}`);
+    let visuals = {};
+    try {
+      visuals = (await api(`/viewer/api/${encodeURIComponent(id)}/visuals`)).visuals || {};
+    } catch (err) {
+      showError(err);                    // the skeleton is still worth showing
+    }
+    // Start at q = 0 clamped into the limits (the sliders' initial values).
+    const byName = Object.fromEntries(info.joints.map((j) => [j.name, j]));
+    const q = info.joint_names.map((name) => initialValue(byName[name]));
+    state.fkRequests += 1;
+    const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
+    state.fkResponses += 1;
+    if (token !== loadToken) return;
+    state.lastQ = q;
+    setModel(info);
+    buildSliders(info);
+    if (model.id === undefined) model.id = id;
+    state.modelId = model.id;
+    buildLinkList(info);
+    fillClosedFormTips(info);
+    buildRobot(info, visuals, fk.poses);
+    applyPoses(fk.poses);
+    resize();
+    fitCamera(FIT_DIRECTION);
+    clearWorkspace();
+    buildQdotInputs(info);
+    showOutOfLimits(fk.out_of_limits || []);
+    $("model-picker").value = model.id;
+    $("model-summary").textContent = `${info.name || model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;
+    const meshCount = Object.values(visuals).flat().filter((v) => v.kind === "mesh").length;
+    const notes = [...(info.warnings || [])];
+    if (meshCount) notes.push(`${meshCount} mesh visual(s) not drawn (meshes are never loaded).`);
+    $("model-warnings").hidden = notes.length === 0;
+    $("model-warnings").textContent = notes.join(" ");
+    $("download-urdf").disabled = false;
+    $("dh-edit-current").hidden = !info.dh_table;
+    document.title = `${model.id} - model viewer`;
+    if (push) history.pushState({ id: model.id }, "", `${ROOT}/viewer/${encodeURIComponent(model.id)}`);
+    if (ik.enabled) resetIkTarget();
+    await showSelectedPose(q);
+    requestRender();
+    await new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve)));
+    if (token === loadToken) state.ready = true;
+  } catch (err) {
+    showError(err);
+  }
+}
+
+$("model-picker").addEventListener("change", () => loadModel($("model-picker").value));
+window.addEventListener("popstate", (e) => { if (e.state && e.state.id) loadModel(e.state.id, { push: false }); });
+$("btn-zero").addEventListener("click", () => setAll(sliders.map((s) => Math.min(Math.max(0, s.lower), s.upper))));
+$("btn-random").addEventListener("click", () => setAll(sliders.map((s) => s.lower + Math.random() * (s.upper - s.lower))));
+$("error-close").addEventListener("click", clearError);
+$("api-key").addEventListener("click", () => {
+  const key = window.prompt("API key of the service (sent as X-API-Key; kept for this tab only). Empty to forget it.",
+    sessionStorage.getItem(API_KEY_STORAGE) || "");
+  if (key === null) return;
+  if (key) sessionStorage.setItem(API_KEY_STORAGE, key); else sessionStorage.removeItem(API_KEY_STORAGE);
+  if (model) loadModel(model.id, { push: false }); else start();
+});
+
+export async function downloadUrdf(id) {
+  try {
+    const text = await api(`/models/${encodeURIComponent(id)}/urdf`, { text: true });
+    const url = URL.createObjectURL(new Blob([text], { type: "application/xml" }));
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = `${id}.urdf`;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 1000);
+  } catch (err) {
+    showError(err);
+  }
+}
+$("download-urdf").addEventListener("click", () => model && downloadUrdf(model.id));
