@@ -29,6 +29,7 @@ from ..errors import ArchiveError, DescriptionFormatError, URDFError
 from ..model.robot import RobotModel
 from . import archive as archives
 from . import xacro as xacros
+from .collision_geometry import ArchiveMeshes
 from .mjcf import parse_mjcf
 from .urdf import DEFAULT_MAX_LINKS, _read_xml, parse_urdf, xacro_use
 
@@ -71,6 +72,10 @@ class Loaded:
     container: str | None = None
     entry: str | None = None
     args: Mapping[str, str] | None = None
+    #: an archive's mesh members (the only meshes an upload's collision geometry may read), else None
+    meshes: "ArchiveMeshes | None" = None
+    #: what reading the archive's meshes left out
+    mesh_warnings: tuple[str, ...] = ()
 
 
 def load_description(data: bytes, *, args: Mapping[str, object] | None = None, entry: str | None = None,
@@ -123,7 +128,15 @@ def load_description(data: bytes, *, args: Mapping[str, object] | None = None, e
                 kind = "xacro"
         else:
             raise ArchiveError(f"archive member {chosen!r} is {_named(kind)}, not a robot description")
-        return Loaded(model, kind, container=fmt, entry=chosen, args=checked)
+        mesh_files, mesh_warnings = archives.read_meshes(data, limits=archive_limits)
+        packages = {name: path.resolve().relative_to(root.resolve()).as_posix()
+                    for name, path in xacros.find_packages([root]).items()
+                    if path.resolve().is_relative_to(root.resolve())}
+        meshes = ArchiveMeshes(mesh_files, {k: ("" if v == "." else v) for k, v in packages.items()},
+                               base="" if "/" not in chosen else PurePosixPath(chosen).parent.as_posix(),
+                               extracted_root=str(root))
+        return Loaded(model, kind, container=fmt, entry=chosen, args=checked, meshes=meshes,
+                      mesh_warnings=tuple(mesh_warnings))
 
 
 def _named(fmt: str) -> str:
