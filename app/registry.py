@@ -307,7 +307,7 @@ class Registry:
     # ------------------------------------------------------------------ writes
     def add_urdf(self, data: bytes, name: str | None = None) -> tuple[ModelRecord, bool]:
         """Register URDF bytes; ``(record, created)``. Raises URDFError for a bad document."""
-        model = parse_urdf(data, max_links=self.max_links)
+        model = api.with_geometry_warnings(parse_urdf(data, max_links=self.max_links))
         return self._register(urdf_id(data), model, data, name, SOURCE_UPLOAD)
 
     def add_upload(self, data: bytes, name: str | None = None, *, args: dict[str, Any] | None = None,
@@ -488,7 +488,7 @@ class Registry:
             if urdf_id(data) != model_id:
                 raise ValueError(f"{path.name}: content does not hash to its id (corrupt or foreign file)")
             try:
-                model = parse_urdf(data, max_links=self.max_links)
+                model = api.with_geometry_warnings(parse_urdf(data, max_links=self.max_links))
             except KinematicsError as exc:
                 raise ValueError(f"{path.name}: {exc}") from None
             source = SOURCE_UPLOAD

@@ -674,3 +674,55 @@ def model_from_description(kind: str, description: Any, *, max_links: int | None
 def description_urdf(kind: str, description: Any) -> str:
     """The URDF text a description becomes (dict or file path, as :func:`model_from_description`)."""
     return model_from_description(kind, description)[0].urdf
+
+
+# -- self-collision -----------------------------------------------------------------------------
+from .algorithms import self_collision as _self_collision  # noqa: E402
+from .algorithms.collision_matrix import DEFAULT_SAMPLES as COLLISION_SAMPLES, CollisionMatrix  # noqa: E402,F401
+from .io.collision_geometry import with_geometry_warnings  # noqa: E402,F401
+
+
+@dataclass(frozen=True)
+class CollisionAnswer:
+    """Self-collision of one configuration or a batch: ``colliding`` (N,), ``pairs`` (per
+    configuration, the link pairs in collision), with distances ``min_distance`` (N,),
+    ``closest`` (per configuration, a pair or None), ``points`` (N, 2, 3) witness points in the
+    root frame; ``checked`` (the pairs looked at), ``links`` (with geometry), ``warnings``."""
+
+    joint_names: tuple[str, ...]
+    is_batch: bool
+    colliding: np.ndarray
+    pairs: list
+    checked: list
+    links: tuple[str, ...]
+    warnings: tuple[str, ...]
+    min_distance: np.ndarray | None = None
+    closest: list | None = None
+    points: np.ndarray | None = None
+
+
+def collision(model: RobotModel, q: Any, *, distance: bool = False, margin: float = 0.0,
+              samples: int = COLLISION_SAMPLES, cache_dir: Any = None, budget: Budget = UNBOUNDED,
+              normalize: bool = False) -> CollisionAnswer:
+    """Self-collision of ``q`` (one configuration or a batch) on the enabled pairs of the model's
+    allowed-collision matrix (:func:`collision_matrix`); ``margin`` (m): closer counts as colliding."""
+    if not isinstance(margin, (int, float)) or not np.isfinite(margin) or margin < 0:
+        raise KinematicsError(f"margin must be a finite distance >= 0 m, got {margin!r}")
+    Q, is_batch = joint_batch(model, q, budget, normalize)
+    cm = _self_collision.geometry(model)
+    checked = collision_matrix(model, samples, cache_dir=cache_dir).enabled()
+    r = cm.check(Q, checked, margin=float(margin), distance=distance)
+    return CollisionAnswer(model.q_labels, is_batch, r.colliding, r.pairs, checked, cm.links, cm.warnings,
+                           r.min_distance, r.closest, r.points)
+
+
+def collision_matrix(model: RobotModel, samples: int = COLLISION_SAMPLES, *, cache_dir: Any = None,
+                     user: Sequence[Sequence[str]] = (), progress: Any = None) -> CollisionMatrix:
+    """The model's allowed-collision matrix (``adjacent``, ``always``, ``never`` over ``samples``
+    random configurations, ``user``), computed once and kept in ``cache_dir`` when given."""
+    return _self_collision.matrix(model, samples, cache_dir=cache_dir, user=user, progress=progress)
+
+
+def collision_free(model: RobotModel, Q: Any, *, margin: float = 0.0, cache_dir: Any = None) -> np.ndarray:
+    """(N,) bool: which rows of ``Q`` (N, nq) are free of self-collision (the matrix's enabled pairs)."""
+    return _self_collision.collision_free(model, Q, margin=margin, cache_dir=cache_dir)

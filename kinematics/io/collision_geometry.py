@@ -41,6 +41,8 @@ import math
 import os
 import posixpath
 import stat
+import threading
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -120,6 +122,26 @@ class MeshSource:
 
     def resolve(self, filename: str) -> tuple[Path | None, bytes | None]:
         raise LookupError("a plain URDF's meshes are never read; upload an archive with the mesh inside")
+
+
+_sources: "weakref.WeakKeyDictionary[RobotModel, MeshSource]" = weakref.WeakKeyDictionary()
+_sources_lock = threading.Lock()
+
+
+def vouch_meshes(model: RobotModel, source: MeshSource) -> RobotModel:
+    """Record that ``model``'s meshes may be read from ``source`` (the catalogue does it for the
+    models it loads, the description reader for an archive's model); the model, for chaining.
+    Trust goes with the model object, never with its text: the same URDF uploaded as a plain
+    file gets no source."""
+    with _sources_lock:
+        _sources[model] = source
+    return model
+
+
+def mesh_source(model: RobotModel) -> MeshSource | None:
+    """The source vouched for ``model`` (see :func:`vouch_meshes`), or None."""
+    with _sources_lock:
+        return _sources.get(model)
 
 
 def _relative(name: str) -> str:
@@ -264,8 +286,10 @@ def _primitive(kind: str, g) -> tuple[float, ...]:
 
 def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> CollisionGeometry:
     """The collision shapes of ``model`` (see the module doc); ``meshes`` says where meshes may be
-    read from (None: nowhere -- a plain upload). Never raises for a bad element: it is skipped
-    and named in ``warnings``."""
+    read from (None: the source vouched for the model, else nowhere -- a plain upload). Never
+    raises for a bad element: it is skipped and named in ``warnings``."""
+    if meshes is None:
+        meshes = mesh_source(model)
     source = meshes if meshes is not None else MeshSource()
     try:
         root = _read_xml(model.urdf.encode("utf-8"))
@@ -313,3 +337,17 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
             per_link.setdefault(lname, []).append(Shape("mesh", origin, scale, filename, path, data, suffix[1:]))
     ordered = {name: tuple(per_link[name]) for name in model.links if name in per_link}
     return CollisionGeometry(ordered, tuple(warnings), source.name)
+
+
+def with_geometry_warnings(model: RobotModel) -> RobotModel:
+    """``model`` with what its collision geometry leaves out (a mesh a plain upload names, a shape
+    that cannot be read) added to its ``warnings`` -- a new model, vouched for like the old; the
+    same model when nothing is left out. Reads no mesh bytes (only names are resolved)."""
+    from dataclasses import replace
+
+    extra = [w for w in collision_geometry(model).warnings if w not in model.warnings]
+    if not extra:
+        return model
+    out = replace(model, warnings=tuple(model.warnings) + tuple(extra))
+    source = mesh_source(model)
+    return vouch_meshes(out, source) if source is not None else out

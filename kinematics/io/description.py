@@ -29,7 +29,7 @@ from ..errors import ArchiveError, DescriptionFormatError, URDFError
 from ..model.robot import RobotModel
 from . import archive as archives
 from . import xacro as xacros
-from .collision_geometry import ArchiveMeshes
+from .collision_geometry import ArchiveMeshes, vouch_meshes, with_geometry_warnings
 from .mjcf import parse_mjcf
 from .urdf import DEFAULT_MAX_LINKS, _read_xml, parse_urdf, xacro_use
 
@@ -96,17 +96,17 @@ def load_description(data: bytes, *, args: Mapping[str, object] | None = None, e
             raise DescriptionFormatError(f"xacro arguments were given, but the body is {_named(fmt)}, not xacro")
     if fmt == "urdf":
         try:
-            return Loaded(parse_urdf(data, max_links=max_links), "urdf")
+            return Loaded(with_geometry_warnings(parse_urdf(data, max_links=max_links)), "urdf")
         except URDFError as exc:
             if _looks_like_xml(data):
                 raise
             raise DescriptionFormatError(f"the body is not a robot description: neither XML (URDF, xacro, MJCF) "
                                          f"nor a zip, gzip or tar archive ({exc})") from None
     if fmt == "mjcf":
-        return Loaded(parse_mjcf(data, max_links=max_links), "mjcf")
+        return Loaded(with_geometry_warnings(parse_mjcf(data, max_links=max_links)), "mjcf")
     if fmt == "xacro":
         model = xacros.parse_xacro(data, args=checked, limits=xacro_limits, max_links=max_links)
-        return Loaded(model, "xacro", args=checked)
+        return Loaded(with_geometry_warnings(model), "xacro", args=checked)
     with tempfile.TemporaryDirectory(prefix="kin-archive-") as tmp:
         root = Path(tmp)
         files = archives.extract(data, root, limits=archive_limits)
@@ -135,6 +135,7 @@ def load_description(data: bytes, *, args: Mapping[str, object] | None = None, e
         meshes = ArchiveMeshes(mesh_files, {k: ("" if v == "." else v) for k, v in packages.items()},
                                base="" if "/" not in chosen else PurePosixPath(chosen).parent.as_posix(),
                                extracted_root=str(root))
+        model = with_geometry_warnings(vouch_meshes(model, meshes))
         return Loaded(model, kind, container=fmt, entry=chosen, args=checked, meshes=meshes,
                       mesh_warnings=tuple(mesh_warnings))
 
@@ -190,4 +191,7 @@ def _has_content(el) -> bool:
 
 def model_with_format(loaded: Loaded) -> RobotModel:
     """The loaded model with its ``format`` set (what the registry stores and serves)."""
-    return loaded.model if loaded.model.format == loaded.format else replace(loaded.model, format=loaded.format)
+    if loaded.model.format == loaded.format:
+        return loaded.model
+    model = replace(loaded.model, format=loaded.format)
+    return vouch_meshes(model, loaded.meshes) if loaded.meshes is not None else model
