@@ -164,7 +164,7 @@ def _package(name: str) -> tuple[str, str]:
         if "://" in name or name.startswith("/"):
             raise LookupError("only package:// names are read" if "://" in name else "absolute paths are never opened")
         raise LookupError("a relative name has no package")
-    pkg, _, rest = name[len("package://"):].partition("/")
+    pkg, _, rest = name[len("package://"):].lstrip("/").partition("/")  # package:///pkg: as ROS tools read it
     if not pkg or pkg in (".", ".."):
         raise LookupError("the package:// name has no package")
     return pkg, _relative(rest)
@@ -237,12 +237,14 @@ class ArchiveMeshes(MeshSource):
             if pkg not in self.packages:
                 raise LookupError(f"the archive has no package {pkg!r}")
             member = posixpath.join(self.packages[pkg], rest) if self.packages[pkg] else rest
-        else:
-            rel = _relative(filename)
-            joined = posixpath.normpath(posixpath.join(self.base, rel)) if self.base else rel
-            if joined.startswith("..") or joined.startswith("/"):
+        else:  # relative to the entry's directory; '..' may climb within the archive, never out of it
+            if "\x00" in filename or "\\" in filename or "://" in filename:
+                raise LookupError("the name has a NUL, a backslash or a URL scheme")
+            if filename.startswith("/") or (len(filename) >= 2 and filename[1] == ":"):
+                raise LookupError("absolute paths are never opened")
+            member = posixpath.normpath(posixpath.join(self.base, filename))
+            if member == ".." or member.startswith("../") or member.startswith("/"):
                 raise LookupError("the name leaves the archive ('..')")
-            member = joined
         data = self.files.get(member)
         if data is None:
             raise LookupError("the archive has no such mesh member (or it was over the size caps)")
