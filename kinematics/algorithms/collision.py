@@ -341,6 +341,12 @@ class CollisionModel:
         creq.security_margin = float(margin)
         creq.enable_contact = False
         creq.num_max_contacts = 1
+        # the hull filter asks for contacts: without them coal's GJK can call deeply overlapping
+        # hulls apart (seen on adjacent links), and the filter must never reject a real collision
+        hreq = coal.CollisionRequest()
+        hreq.security_margin = float(margin)
+        hreq.enable_contact = True
+        hreq.num_max_contacts = 1
         dreq = coal.DistanceRequest()
         tf_a, tf_b = coal.Transform3s(), coal.Transform3s()
         cres, dres = coal.CollisionResult(), coal.DistanceResult()
@@ -377,7 +383,7 @@ class CollisionModel:
                     if ba is not None or bb is not None:  # hulls apart: the meshes inside them are too
                         cres.clear()
                         if not coal.collide(objs[a] if ba is None else ba, tf_a, objs[b] if bb is None else bb, tf_b,
-                                            creq, cres):
+                                            hreq, cres):
                             continue
                     cres.clear()
                     if coal.collide(objs[a], tf_a, objs[b], tf_b, creq, cres):
