@@ -19,6 +19,7 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from kinematics.errors import (
+    CollisionError,
     ArchiveError,
     ArchiveTooLargeError,
     ExpansionLimitError,
@@ -93,6 +94,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (PoseError, 422, "invalid-pose", "Invalid pose"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
+    (CollisionError, 422, "invalid-collision-request", "Invalid self-collision request"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )
 

@@ -10,6 +10,7 @@ importable from ``app.schemas`` itself.
 
 from pydantic import BaseModel
 
+from .collision import *  # noqa: F403
 from .common import *  # noqa: F403
 from .common import (_BASE_DESC, _FLOATING_BASE_DESC, _LIMITS_DESC, _NORMALIZE_DESC, _POINT_DESC,  # noqa: F401
                      _Q_DESC, _REPRESENTATION_DESC, _TOOL_DESC)
@@ -28,8 +29,9 @@ from .models import AxesDescriptionIn, DHTable, PoEDescriptionIn, URDFUpload
 from .common import Problem
 from .velocity import VelocityRequest
 from .workspace import WorkspaceRequest
+from .collision import CollisionRequest
 
 #: the request schemas whose JSON Schema the OpenAPI document lists (bodies some handlers read themselves)
 REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, VelocityRequest,
                                                 WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
-                                                AxesDescriptionIn, Problem)
+                                                AxesDescriptionIn, CollisionRequest, Problem)
