@@ -140,3 +140,10 @@ def test_example_08_task_vectors_and_analytic_jacobians():
     assert "planar 2R: r = [0.5      0.4      1.570796] J_r = [[-0.4, -0.4], [0.5, 0.0], [1.0, 1.0]]" in out
     assert "rows ('px', 'py', 'pz', 'yaw')" in out
     assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
+
+
+def test_example_09_self_collision():
+    out = run_example("09_self_collision.py")
+    assert "colliding: [False, True]" in out
+    assert "same pairs as Pinocchio: 100.0%" in out
+    assert deviation(out, "distance deviation from Pinocchio:") < 1e-6
