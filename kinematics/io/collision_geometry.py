@@ -250,6 +250,39 @@ class ArchiveMeshes(MeshSource):
             raise LookupError("the archive has no such mesh member (or it was over the size caps)")
         return None, data
 
+    #: the member of :meth:`to_bytes` that holds the packages, the base and the extraction root
+    MANIFEST = "kinematics-meshes.json"
+
+    def to_bytes(self) -> bytes:
+        """This source as a zip (stored, members sorted; a manifest beside the meshes): what a
+        registry keeps next to an archive's model so that another process reads the same meshes."""
+        import io
+        import json
+        import zipfile
+
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:
+            manifest = {"packages": self.packages, "base": self.base,
+                        "extracted_root": self.extracted_root.rstrip("/") if self.extracted_root else None}
+            zf.writestr(zipfile.ZipInfo(self.MANIFEST, (1980, 1, 1, 0, 0, 0)), json.dumps(manifest, sort_keys=True))
+            for name in sorted(self.files):
+                zf.writestr(zipfile.ZipInfo(name, (1980, 1, 1, 0, 0, 0)), self.files[name])
+        return buf.getvalue()
+
+    @classmethod
+    def from_bytes(cls, data: bytes) -> "ArchiveMeshes":
+        """The source :meth:`to_bytes` wrote (read with the archive checks and caps)."""
+        import io
+        import json
+        import zipfile
+
+        from .archive import read_meshes
+
+        files, _ = read_meshes(data)
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            manifest = json.loads(zf.read(cls.MANIFEST)[:1 << 20])
+        return cls(files, manifest.get("packages") or {}, manifest.get("base") or "", manifest.get("extracted_root"))
+
 
 def _numbers(text: str | None, n: int, default: tuple[float, ...], what: str) -> tuple[float, ...]:
     if text is None:

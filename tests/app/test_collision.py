@@ -117,3 +117,40 @@ def test_an_archive_upload_brings_its_meshes(client):
     assert body["links"] == ["a", "b"] and body["warnings"] == []
     # a and b are adjacent (through the geometry-less m): never checked
     assert body["checked_pairs"] == 0 and body["colliding"] == [False, False]
+
+
+def test_an_archive_s_meshes_survive_a_restart(api_data_dir, monkeypatch):
+    """Another process (a worker, or the service after a restart) reads the same meshes."""
+    import trimesh
+
+    monkeypatch.setenv("KIN_DATA_DIR", str(api_data_dir))
+    monkeypatch.setenv("KIN_COLLISION_SAMPLES", "200")
+    from app.main import create_app
+
+    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="stl")
+    urdf = """<robot name="trio">
+      <link name="a"><collision><geometry><mesh filename="package://trio/meshes/cube.stl"/></geometry></collision></link>
+      <link name="m"><collision><origin xyz="0 0 5"/><geometry><sphere radius="0.01"/></geometry></collision></link>
+      <link name="b"><collision><geometry><mesh filename="package://trio/meshes/cube.stl"/></geometry></collision></link>
+      <joint name="j0" type="fixed"><parent link="a"/><child link="m"/></joint>
+      <joint name="x" type="prismatic"><parent link="m"/><child link="b"/><axis xyz="1 0 0"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        zf.writestr("trio/package.xml", "<package><name>trio</name></package>")
+        zf.writestr("trio/urdf/trio.urdf", urdf)
+        zf.writestr("trio/meshes/cube.stl", cube)
+    body = {"q": [[0.05], [0.5]], "distance": True}
+    with TestClient(create_app()) as c:
+        mid = c.post("/models", content=buf.getvalue(), headers={"Content-Type": "application/zip"}).json()["id"]
+        first = c.post(f"/models/{mid}/collision", json=body).json()
+    assert first["links"] == ["a", "m", "b"] and first["checked_pairs"] == 1  # (a, b): not adjacent
+    assert first["colliding"] == [True, False]
+    assert first["min_distance"][1] == pytest.approx(0.4, abs=1e-6)
+    assert list((api_data_dir / "models").glob("*.meshes.zip"))
+    with TestClient(create_app()) as c:  # a new process's registry, reading the data directory
+        again = c.post(f"/models/{mid}/collision", json=body).json()
+        assert again["links"] == first["links"] and again["colliding"] == first["colliding"]
+        assert again["min_distance"] == pytest.approx(first["min_distance"], abs=1e-12)
+        assert c.delete(f"/models/{mid}").status_code in (200, 204)
+    assert not list((api_data_dir / "models").glob("*.meshes.zip"))
