@@ -325,6 +325,8 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
     raises for a bad element: it is skipped and named in ``warnings``."""
     if meshes is None:
         meshes = mesh_source(model)
+        if meshes is None and model.base_model is not None:  # a floating-base form shares its model's meshes
+            meshes = mesh_source(model.base_model)
     source = meshes if meshes is not None else MeshSource()
     try:
         root = _read_xml(model.urdf.encode("utf-8"))

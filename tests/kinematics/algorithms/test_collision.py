@@ -160,3 +160,14 @@ def test_collision_free_is_the_negated_check(catalogue):
     free = api.collision_free(model, Q)
     assert free.dtype == bool and free.shape == (300,)
     assert (free == ~api.collision(model, Q.tolist()).colliding).all()
+
+
+def test_a_floating_base_form_shares_the_meshes(catalogue):
+    from kinematics import usecases
+
+    model = catalogue.get("panda")
+    ready = [0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02]
+    fixed = usecases.collision(model, [ready], samples=300, distance=True)
+    free = usecases.collision(model, [[0, 0, 0, 0, 0, 0, 1] + ready], samples=300, distance=True, floating_base=True)
+    assert free.links == fixed.links and free.warnings == ()
+    assert free.min_distance[0] == pytest.approx(fixed.min_distance[0], abs=1e-12)
