@@ -53,6 +53,9 @@ from ..model.robot import RobotModel
 
 #: the broad phase's slack (m): spheres this much apart still go to the narrow phase (round-off)
 BROAD_PHASE_SLACK = 1e-9
+#: the most shape pairs one check looks at, and the most (configuration, shape pair) values of one chunk
+MAX_SHAPE_PAIRS = 2_000_000
+MAX_CHUNK_VALUES = 8_000_000
 
 
 class CollisionGeometryError(CollisionError):
@@ -284,12 +287,16 @@ class CollisionModel:
 
     # -- pairs ------------------------------------------------------------------------------
     def all_pairs(self) -> list[tuple[str, str]]:
-        """Every pair of links with geometry, ``links`` order."""
+        """Every pair of links with geometry, ``links`` order (CollisionError past :data:`MAX_SHAPE_PAIRS`)."""
+        n = len(self.links) * (len(self.links) - 1) // 2
+        if n > MAX_SHAPE_PAIRS:
+            raise CollisionError(f"{len(self.links)} links with collision geometry make {n} pairs; the limit is "
+                                 f"{MAX_SHAPE_PAIRS}")
         return [(a, b) for i, a in enumerate(self.links) for b in self.links[i + 1:]]
 
     def pair_indices(self, pairs: Sequence[tuple[str, str]]) -> np.ndarray:
         """(P, 2) indices into ``links`` of named pairs (each ordered as in ``links``); a name
-        without geometry raises :class:`~kinematics.errors.UnknownLinkError`-like KinematicsError."""
+        without geometry, or a pair of one link, raises :class:`CollisionPairError`."""
         out = []
         for a, b in pairs:
             for name in (a, b):
@@ -330,7 +337,12 @@ class CollisionModel:
         P = (self.pair_indices(self.all_pairs()) if pairs is None
              else np.asarray(pairs, dtype=np.intp).reshape(-1, 2) if isinstance(pairs, np.ndarray)
              else self.pair_indices(pairs))
+        n_shape_pairs = sum(len(self._link_shapes[i]) * len(self._link_shapes[j]) for i, j in P)
+        if n_shape_pairs > MAX_SHAPE_PAIRS:
+            raise CollisionError(f"{n_shape_pairs} shape pairs to check ({len(P)} link pairs); the limit is "
+                                 f"{MAX_SHAPE_PAIRS}: disable pairs, or merge a link's shapes")
         SP, owner = self._shape_pairs(P)
+        chunk = max(1, min(int(chunk), MAX_CHUNK_VALUES // max(len(SP), 1)))  # bounds the (chunk, pairs) arrays
         N = len(Q)
         colliding = np.zeros(N, dtype=bool)
         hits: list[list[tuple[str, str]]] = [[] for _ in range(N)]

@@ -171,3 +171,15 @@ def test_a_floating_base_form_shares_the_meshes(catalogue):
     free = usecases.collision(model, [[0, 0, 0, 0, 0, 0, 1] + ready], samples=300, distance=True, floating_base=True)
     assert free.links == fixed.links and free.warnings == ()
     assert free.min_distance[0] == pytest.approx(fixed.min_distance[0], abs=1e-12)
+
+
+def test_too_many_pairs_is_a_clean_error(monkeypatch):
+    from kinematics.algorithms import collision
+
+    m = parse_urdf(CHAIN)
+    cm = CollisionModel(m, collision_geometry(m))
+    monkeypatch.setattr(collision, "MAX_SHAPE_PAIRS", 5)
+    with pytest.raises(CollisionError, match="the limit is 5"):
+        cm.all_pairs()
+    with pytest.raises(CollisionError, match="the limit is 5"):
+        cm.check(np.zeros((1, m.nq)), [("base", "l2")] * 6)
