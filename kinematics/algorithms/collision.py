@@ -326,11 +326,11 @@ class CollisionModel:
 
     def check(self, Q, pairs: Sequence[tuple[str, str]] | np.ndarray | None = None, *, margin: float = 0.0,
               distance: bool = False, stop_at_first: bool = False,
-              progress: Callable[[int], None] | None = None, chunk: int = 2048) -> CollisionResult:
+              progress: Callable[[int], None] | None = None, chunk: int = 8192) -> CollisionResult:
         """Check every configuration of ``Q`` (N, nq) on ``pairs`` (names, or (P, 2) indices into
         ``links``; None: every pair). ``margin`` (m, >= 0): closer counts as colliding.
-        ``stop_at_first``: stop a configuration at its first colliding pair (``pairs`` then lists
-        only it). ``progress(k)`` is called after every ``chunk`` configurations with the count done."""
+        ``stop_at_first``: stop a configuration at the first colliding pair found (``pairs`` then
+        lists only it; pairs are visited pair by pair over the batch, not in ``links`` order). ``progress(k)`` is called after every ``chunk`` configurations with the count done."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         if not (np.isfinite(margin) and margin >= 0):
             raise CollisionError(f"margin must be a finite distance >= 0 m, got {margin!r}")
@@ -374,8 +374,9 @@ class CollisionModel:
                 gap = np.linalg.norm(C[:, SP[:, 0]] - C[:, SP[:, 1]], axis=2) - self._radii[SP[:, 0]] - self._radii[SP[:, 1]]
             else:
                 gap = np.zeros((n_rows, 0))
-            done = np.zeros((n_rows, len(P)), dtype=bool)
-            cn, cq = np.nonzero(gap <= reach)
+            nP = len(P)
+            done = bytearray(n_rows * nP)  # (configuration, link pair) decided colliding
+            cq, cn = np.nonzero(gap.T <= reach)  # pair by pair: one pair's meshes stay in the caches
             if len(cn):
                 A, B = SP[cq, 0], SP[cq, 1]
                 keep = _boxes_overlap(W[cn, A] @ self._box[A], self._half[A] + reach,
@@ -384,13 +385,13 @@ class CollisionModel:
                 Ra, pa = np.ascontiguousarray(W[cn, A, :3, :3]), np.ascontiguousarray(W[cn, A, :3, 3])
                 Rb, pb = np.ascontiguousarray(W[cn, B, :3, :3]), np.ascontiguousarray(W[cn, B, :3, 3])
                 K = owner[cq]
-                for c, (n, k, a, b) in enumerate(zip(cn.tolist(), K.tolist(), A.tolist(), B.tolist())):
-                    if done[n, k] or (stop_at_first and colliding[start + n]):
+                for ra, ta, rb, tb, n, k, a, b in zip(Ra, pa, Rb, pb, cn.tolist(), K.tolist(), A.tolist(), B.tolist()):
+                    if done[n * nP + k] or (stop_at_first and colliding[start + n]):
                         continue
-                    tf_a.setRotation(Ra[c])
-                    tf_a.setTranslation(pa[c])
-                    tf_b.setRotation(Rb[c])
-                    tf_b.setTranslation(pb[c])
+                    tf_a.setRotation(ra)
+                    tf_a.setTranslation(ta)
+                    tf_b.setRotation(rb)
+                    tf_b.setTranslation(tb)
                     ba, bb = bounds[a], bounds[b]
                     if ba is not None or bb is not None:  # hulls apart: the meshes inside them are too
                         cres.clear()
@@ -399,7 +400,7 @@ class CollisionModel:
                             continue
                     cres.clear()
                     if coal.collide(objs[a], tf_a, objs[b], tf_b, creq, cres):
-                        done[n, k] = True
+                        done[n * nP + k] = 1
                         colliding[start + n] = True
                         i, j = P[k]
                         hits[start + n].append((links[i], links[j]))
