@@ -8,7 +8,7 @@ loop or on the default thread pool, which heavy work does not use, and the threa
 pool run at a lower scheduling priority (``KIN_HEAVY_NICE``) so that the CPU goes first to the
 threads that answer light requests.
 
-Each heavy call gets a :class:`kinematics.api.Cancellation` with the time budget
+Each heavy call gets a :class:`kinematics.usecases.Cancellation` with the time budget
 ``KIN_REQUEST_TIMEOUT`` (counted from when the call is queued). The library checks it between
 pieces of the work (``kinematics.engine.cancel``); while the work runs, the event loop polls the
 connection every :data:`POLL_SECONDS` and cancels the token when the client has disconnected, so

@@ -34,7 +34,7 @@ _compiled_seen = 0
 
 
 def record_models() -> None:
-    """Bring the model counts up to date with the library's (:func:`kinematics.api.compiled_models`;
+    """Bring the model counts up to date with the library's (:func:`kinematics.usecases.compiled_models`;
     called after each request and before each exposition: the app observes, the library compiles)."""
     global _compiled_seen
     from kinematics import api

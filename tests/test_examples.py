@@ -142,8 +142,20 @@ def test_example_08_task_vectors_and_analytic_jacobians():
     assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
 
 
-def test_example_09_self_collision():
-    out = run_example("09_self_collision.py")
+def test_example_09_calibration():
+    out = run_example("09_calibration.py")
+    chosen, random = map(float, re.search(r"log det ([0-9.]+) \(random ([0-9.]+)\)", out).groups())
+    assert chosen > random
+    assert "identifiable: 27 (4R + 3 = 27)" in out and "absorbed by the base frame" in out
+    before, after = map(float, re.search(r"RMS before ([0-9.]+) mm, after ([0-9.]+) um", out).groups())
+    assert before > 2 and after < 40  # millimetres before, the 35 um of the noise after
+    nominal, calibrated = map(float, re.search(r"nominal model ([0-9.]+) mm off, calibrated ([0-9.]+) um off",
+                                                out).groups())
+    assert nominal > 2 and calibrated < 30
+
+
+def test_example_10_self_collision():
+    out = run_example("10_self_collision.py")
     assert "colliding: [False, True]" in out
     assert "same pairs as Pinocchio: 100.0%" in out
     assert deviation(out, "distance deviation from Pinocchio:") < 1e-6

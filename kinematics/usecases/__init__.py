@@ -4,7 +4,8 @@ Each takes a :class:`~kinematics.usecases.query.Query` ("which frame of which mo
 point / tool, base, floating base, normalisation, limits policy, verification, budget) and its own
 arguments: :func:`fk` ``(query, q)``, :func:`jacobian` ``(query, q, reference=...)``,
 :func:`velocity` ``(query, q, qdot)``, :func:`ik` ``(query, target, ...)``, :func:`workspace`
-``(query, samples=...)``, :func:`task` ``(query, q, representation=...)``; closed forms
+``(query, samples=...)``, :func:`task` ``(query, q, representation=...)``, :func:`calibrate`
+``(query, measurements, ...)`` and :func:`calibration_poses` ``(query, n, ...)``; closed forms
 (:func:`symbolic`, :func:`symbolic_dh`) and models (:func:`load_model`, :func:`model_from_description`,
 ...) take what they need. The answers are plain objects of numpy arrays; turning them into JSON or
 ``.npy`` is the caller's business.
@@ -21,6 +22,7 @@ out (:class:`~kinematics.errors.TimeBudgetError`); see :mod:`kinematics.engine.c
 """
 
 from ..engine.cancel import Cancellation, cancellable
+from .calibration import calibrate, calibration_measurements, calibration_poses
 from .collision import CollisionAnswer, collision, collision_free, collision_matrix
 from .fk import FKAnswer, fk
 from .ik import IKAnswer, ik
@@ -36,7 +38,7 @@ from .velocity import VelocityAnswer, velocity
 from .workspace import workspace
 
 __all__ = [
-    "Cancellation", "cancellable", "FKAnswer", "fk", "IKAnswer", "ik", "JacobianAnswer", "jacobian",
+    "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk", "IKAnswer", "ik", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",

@@ -31,6 +31,7 @@ from kinematics import api
 from kinematics.io.catalogue import default_catalogue
 from tests.live import LiveServer
 from tests.paths import FIXTURES
+from tests.helpers import npy_bytes
 
 pytestmark = pytest.mark.slow
 
@@ -43,14 +44,6 @@ URDFS = ["planar_2r.urdf", "planar_3r.urdf", "spatial_3r.urdf", "tree_mimic.urdf
 CLOSE = {"Connection": "close"}
 
 
-def _npy(a: np.ndarray) -> bytes:
-    import io
-
-    buf = io.BytesIO()
-    np.save(buf, a)
-    return buf.getvalue()
-
-
 def _catalogue_requests() -> dict[str, tuple]:
     """name -> (method, path, kwargs of httpx, expected status)."""
     ur5, panda = default_catalogue().get("ur5"), default_catalogue().get("panda")
@@ -59,7 +52,7 @@ def _catalogue_requests() -> dict[str, tuple]:
     T = api.fk(ur5, ur5.sample_configurations(60, rng), links=["tool0"]).poses[:, 0]
     return {
         "fk": ("POST", "/models/ur5/fk", {"json": {"q": Q.tolist(), "links": "all"}}, 200),
-        "fk_npy": ("POST", "/models/ur5/fk", {"content": _npy(ur5.sample_configurations(20_000, rng)),
+        "fk_npy": ("POST", "/models/ur5/fk", {"content": npy_bytes(ur5.sample_configurations(20_000, rng)),
                                              "headers": {"Content-Type": "application/x-npy",
                                                          "Accept": "application/x-npy"}}, 200),
         "jacobian": ("POST", "/models/panda/jacobian",
