@@ -52,13 +52,14 @@ def matrix(model: RobotModel, samples: int = DEFAULT_SAMPLES, *, cache_dir: os.P
     """The model's allowed-collision matrix from ``samples`` configurations (kept per model in
     memory and, with ``cache_dir``, on disk), with ``user`` pairs also disabled."""
     cm = geometry(model)
+    key = (samples, None if cache_dir is None else str(cache_dir))  # a new cache directory gets its file
     with _lock:
         per = _matrices.setdefault(cm, {})
-        found = per.get(samples)
+        found = per.get(key)
     if found is None:
         found = _matrix(cm, samples, cache_dir=cache_dir, progress=progress)
         with _lock:
-            per[samples] = found
+            per[key] = found
     elif progress is not None:
         progress(samples)
     return found.with_user(user) if user else found
