@@ -206,3 +206,34 @@ def test_a_decompression_bomb_of_meshes_is_refused():
 def test_geometry_warnings_keep_the_source(catalogue):
     m = catalogue.get("ur5")
     assert with_geometry_warnings(m) is m  # nothing left out: the same object
+
+
+BILLION_LAUGHS_DAE = b"""<?xml version="1.0"?>
+<!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;">]>
+<COLLADA><asset>&lol2;</asset></COLLADA>"""
+
+
+def test_archive_obj_and_dae_meshes_and_a_hostile_dae():
+    import trimesh
+
+    from kinematics.algorithms import self_collision
+
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    urdf = """<robot name="formats">
+      <link name="a"><collision><geometry><mesh filename="package://fmt/meshes/a.obj"/></geometry></collision></link>
+      <link name="b"><collision><geometry><mesh filename="package://fmt/meshes/b.dae" scale="2 2 2"/></geometry></collision></link>
+      <link name="c"><collision><geometry><mesh filename="package://fmt/meshes/lol.dae"/></geometry></collision>
+        <collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+      <joint name="x" type="prismatic"><parent link="a"/><child link="b"/><origin xyz="0 0 9"/><axis xyz="1 0 0"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="y" type="fixed"><parent link="a"/><child link="c"/><origin xyz="0 0 -9"/></joint></robot>"""
+    data = _zip({"fmt/package.xml": b"<package><name>fmt</name></package>", "fmt/urdf/f.urdf": urdf.encode(),
+                 "fmt/meshes/a.obj": box.export(file_type="obj").encode(),
+                 "fmt/meshes/b.dae": box.export(file_type="dae"), "fmt/meshes/lol.dae": BILLION_LAUGHS_DAE})
+    model = model_with_format(load_description(data))
+    cm = self_collision.geometry(model)
+    assert cm.links == ("a", "b", "c")
+    assert any("lol.dae" in w and "not safe" in w for w in cm.warnings)  # left out, the sphere kept
+    # b (a 0.2 m cube) 9 m above a (0.1 m): distance 9 - 0.05 - 0.1
+    r = cm.check([[0.0]], [("a", "b")], distance=True)
+    assert r.min_distance[0] == pytest.approx(9 - 0.05 - 0.1, abs=1e-6)
