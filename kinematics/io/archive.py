@@ -12,6 +12,10 @@ so never opened -- and refuses, naming the member:
   from the central directory *before* anything is extracted, then enforced while reading,
   as sizes can lie), and -- gzip -- a stream that decompresses to more than
   ``max_stream_bytes`` (a tar of zeros compresses a thousandfold).
+
+:func:`read_meshes` reads the mesh members (STL, OBJ, DAE) into memory -- never onto disk --
+with the same refusals and per-mesh and per-archive byte caps (:class:`MeshLimits`): the only
+meshes an upload's collision geometry may use (:mod:`kinematics.io.collision_geometry`).
 """
 
 from __future__ import annotations
