@@ -19,6 +19,7 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from kinematics.errors import (
+    CollisionError,
     ArchiveError,
     ArchiveTooLargeError,
     ExpansionLimitError,
@@ -97,6 +98,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (CalibrationError, 422, "invalid-calibration-data", "Measurements a calibration cannot use"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
     (MissingExtraError, 501, "extra-not-installed", "An optional dependency of the server is not installed"),
+    (CollisionError, 422, "invalid-collision-request", "Invalid self-collision request"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )
 

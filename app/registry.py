@@ -57,6 +57,7 @@ from kinematics import api
 from kinematics.errors import KinematicsError, UnknownModelError, did_you_mean
 from kinematics.io import dh_table as dh
 from kinematics.io.catalogue import Catalogue
+from kinematics.io.collision_geometry import ArchiveMeshes, vouch_meshes
 from kinematics.io.description import load_description
 from kinematics.io.urdf import parse_urdf
 from kinematics.model.robot import RobotModel
@@ -83,6 +84,8 @@ UPLOAD_PREFIXES = {"xacro": "x-", "mjcf": "m-", "archive": "a-"}
 _CONVERTED_ID = re.compile(rf"^[xma]-[0-9a-f]{{{ID_HASH_DIGITS}}}$")
 _DH_ID = re.compile(rf"^{DH_PREFIX}[0-9a-f]{{{ID_HASH_DIGITS}}}$")
 URDF_SUFFIX, DH_SUFFIX, META_SUFFIX = ".urdf", ".dh.json", ".meta.json"
+#: beside a model read from an archive: its collision meshes (a zip this registry writes)
+MESHES_SUFFIX = ".meshes.zip"
 
 SOURCE_UPLOAD, SOURCE_DH = "upload", "dh"
 #: DH tables are stored and hashed in radians, so one table written in degrees or radians has one id
@@ -361,7 +364,7 @@ class Registry:
     # ------------------------------------------------------------------ writes
     def add_urdf(self, data: bytes, name: str | None = None) -> tuple[ModelRecord, bool]:
         """Register URDF bytes; ``(record, created)``. Raises URDFError for a bad document."""
-        model = parse_urdf(data, max_links=self.max_links)
+        model = api.with_geometry_warnings(parse_urdf(data, max_links=self.max_links))
         return self._register(urdf_id(data), model, data, name, SOURCE_UPLOAD)
 
     def add_upload(self, data: bytes, name: str | None = None, *, args: dict[str, Any] | None = None,
@@ -376,6 +379,13 @@ class Registry:
         model_id = upload_id(kind, data, dict(loaded.args or {}), loaded.entry)
         model = loaded.model
         urdf = model.urdf.encode("utf-8")
+        if loaded.meshes is not None and loaded.meshes.files:  # kept so that every process reads the same meshes
+            try:
+                atomic_write(self._meshes_path(model_id), loaded.meshes.to_bytes())
+            except OSError as exc:
+                log.error("cannot store the meshes of %s in %s: %s", model_id, self.models_dir, exc)
+                raise ProblemError(507, f"model {model_id} could not be stored: {exc.strerror or exc}",
+                                   slug="storage-error", title="Insufficient storage") from None
         upload = {"format": loaded.format, "container": loaded.container, "entry": loaded.entry,
                   "args": dict(loaded.args or {}), "warnings": list(model.warnings),
                   "urdf_sha256": hashlib.sha256(urdf).hexdigest(), "source_sha256": hashlib.sha256(data).hexdigest()}
@@ -478,10 +488,11 @@ class Registry:
             raise UnknownModelError(f"unknown model {model_id!r}") from None
         except OSError as exc:  # a read-only data directory: the model stays, and says so
             raise storage_problem(model_id, "deleted", exc) from None
-        try:
-            os.unlink(self._meta_path(model_id))
-        except OSError:  # gone, or not removable: an orphan sidecar is never listed
-            pass
+        for path in (self._meta_path(model_id), self._meshes_path(model_id)):
+            try:
+                os.unlink(path)
+            except OSError:  # gone, or not removable: an orphan sidecar (or meshes file) is never listed
+                pass
 
     # ------------------------------------------------------------------ files
     def _content_path(self, model_id: str) -> Path:
@@ -491,6 +502,10 @@ class Registry:
 
     def _meta_path(self, model_id: str) -> Path:
         return self.models_dir / f"{model_id}{META_SUFFIX}"
+
+    def _meshes_path(self, model_id: str) -> Path:
+        """The collision meshes of a model read from an archive (written by this registry only)."""
+        return self.models_dir / f"{model_id}{MESHES_SUFFIX}"
 
     def _stored_ids(self) -> list[str]:
         ids = []
@@ -549,12 +564,21 @@ class Registry:
             warnings = upload.get("warnings")
             model = replace(model, format=str(upload.get("format") or "urdf"),
                             warnings=tuple(str(w) for w in warnings) if isinstance(warnings, list) else model.warnings)
+            try:
+                meshes = self._meshes_path(model_id).read_bytes()
+            except FileNotFoundError:
+                pass
+            else:
+                try:
+                    vouch_meshes(model, ArchiveMeshes.from_bytes(meshes))
+                except (KinematicsError, ValueError, KeyError, OSError) as exc:
+                    log.warning("ignoring the unreadable meshes of %s: %s", model_id, exc)
             source = SOURCE_UPLOAD
         elif model_id.startswith(UPLOAD_PREFIX):
             if urdf_id(data) != model_id:
                 raise ValueError(f"{path.name}: content does not hash to its id (corrupt or foreign file)")
             try:
-                model = parse_urdf(data, max_links=self.max_links)
+                model = api.with_geometry_warnings(parse_urdf(data, max_links=self.max_links))
             except KinematicsError as exc:
                 raise ValueError(f"{path.name}: {exc}") from None
             source = SOURCE_UPLOAD

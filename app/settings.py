@@ -15,6 +15,9 @@ variable                   default                     meaning
 ``KIN_MAX_RESULT_VALUES``  32,000,000                  numbers in one FK / Jacobian answer
 ``KIN_MAX_WORKSPACE_SAMPLES`` 1,000,000                configurations one workspace request
                                                        may sample
+``KIN_COLLISION_SAMPLES``  10,000                      random configurations behind a model's
+                                                       allowed-collision matrix (computed once,
+                                                       kept in the data directory)
 ``KIN_SYMBOLIC_TIMEOUT``   30                          seconds one closed-form request may take
 ``KIN_MAX_ARCHIVE_BYTES``  64 MiB                      a description archive body (zip, gzip, tar)
 ``KIN_MAX_ARCHIVE_EXTRACTED_BYTES`` 64 MiB             description files extracted from one
@@ -78,6 +81,8 @@ class Settings(BaseSettings):
                              description="most IK steps one request may take: targets x (restarts + 1) x max_iterations")
     max_result_values: int = Field(default=32_000_000, gt=0,
                                    description="most numbers in one FK / Jacobian answer (N x links x 16, N x 6 x dof)")
+    collision_samples: int = Field(default=10_000, gt=0, le=1_000_000,
+                                   description="random configurations behind a model's allowed-collision matrix")
     max_workspace_samples: int = Field(default=1_000_000, gt=0,
                                        description="most configurations one workspace request may sample")
     symbolic_timeout: float = Field(default=30.0, gt=0, le=3600,

@@ -1,6 +1,6 @@
 """Run every benchmark and print markdown tables (``python -m bench.run_all``, ``make bench``).
 
-Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,load,calibration``
+Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,load,calibration,collision``
 (default: all but ``ik``, which needs the baselines of the ``bench`` extra and takes minutes, and
 ``logs``, ``load`` and ``single``; ``load`` writes ``RESULTS_LOAD.md``, ``single`` (one configuration
 at a time, with the spread over repeated runs) ``RESULTS_SINGLE.md``),
@@ -24,13 +24,14 @@ import time
 
 from .common import Report, machine_info
 
-SUITES = ("kernels", "scaling", "service", "ik", "logs", "floating", "load", "calibration", "single")
+SUITES = ("kernels", "scaling", "service", "ik", "logs", "floating", "load", "calibration", "single", "collision")
 #: the suites run when --only is not given
 DEFAULT_SUITES = ("kernels", "scaling", "service")
 #: suites whose tables are written to their own file, beside --output (not into it)
 SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md", "floating": "RESULTS_FLOATING.md",
                    "load": "RESULTS_LOAD.md", "calibration": "RESULTS_CALIBRATION.md",
-                   "single": "RESULTS_SINGLE.md"}
+                   "single": "RESULTS_SINGLE.md",
+                   "collision": "RESULTS_COLLISION.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 

@@ -18,6 +18,8 @@ from .usecases import (DEFAULT_SYMBOLIC_TIMEOUT, DESCRIPTION_KINDS, LIMIT_POLICI
                        dh_form, fk, ik, jacobian, joint_batch, load_model, model_for, model_from_description,
                        reference_name, resolve_links, screws, symbolic, symbolic_dh, task, velocity, warm_up,
                        workspace)
+from .usecases import CollisionAnswer, collision, collision_free, collision_matrix  # noqa: F401
+from .io.collision_geometry import with_geometry_warnings  # noqa: F401 - the registry adds mesh warnings with it
 from .usecases.query import Answer as _Answer, prefixed as _prefixed  # noqa: F401 - former private names
 
 __all__ = [
@@ -26,4 +28,5 @@ __all__ = [
     "TaskAnswer", "Verification", "VelocityAnswer", "cancellable", "compiled_models", "description_urdf", "dh_form",
     "fk", "ik", "jacobian", "joint_batch", "load_model", "model_for", "model_from_description", "reference_name",
     "resolve_links", "screws", "symbolic", "symbolic_dh", "task", "velocity", "warm_up", "workspace",
+    "CollisionAnswer", "collision", "collision_free", "collision_matrix", "with_geometry_warnings",
 ]

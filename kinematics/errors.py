@@ -218,3 +218,8 @@ def did_you_mean(name: object, valid, what: str = "names", limit: int = 10) -> s
     shown = ", ".join(valid[:limit])
     more = f", ... ({len(valid)} in all)" if len(valid) > limit else ""
     return f"{out} valid {what}: {shown}{more}"
+
+
+class CollisionError(KinematicsError):
+    """A self-collision request the model cannot answer: a pair naming a link without collision
+    geometry or one link twice, a bad margin, a mesh that cannot be built."""

@@ -152,3 +152,10 @@ def test_example_09_calibration():
     nominal, calibrated = map(float, re.search(r"nominal model ([0-9.]+) mm off, calibrated ([0-9.]+) um off",
                                                 out).groups())
     assert nominal > 2 and calibrated < 30
+
+
+def test_example_10_self_collision():
+    out = run_example("10_self_collision.py")
+    assert "colliding: [False, True]" in out
+    assert "same pairs as Pinocchio: 100.0%" in out
+    assert deviation(out, "distance deviation from Pinocchio:") < 1e-6

@@ -27,7 +27,7 @@ HEAVY = {"fastapi", "uvicorn", "starlette", "pydantic", "pydantic-settings", "or
 #: the import names of the heavy distributions, refused by the simulated lean interpreter
 BLOCKED = ["fastapi", "uvicorn", "starlette", "pydantic", "pydantic_settings", "orjson", "fastapi_offline",
            "prometheus_client", "pinocchio", "example_robot_data", "mujoco", "xacro", "sympy", "matplotlib",
-           "rosbags", "pyarrow", "mcap", "dask", "scipy", "torch"]
+           "rosbags", "pyarrow", "mcap", "dask", "scipy", "torch", "coal"]
 
 
 def _name(requirement: str) -> str:
@@ -50,7 +50,7 @@ def test_every_heavy_dependency_is_in_an_extra_and_all_gathers_the_user_extras()
     (everything,) = extras["all"]
     named = set(re.search(r"\[(.*)\]", everything).group(1).split(","))
     assert _name(everything) == PYPROJECT["project"]["name"]
-    assert named == {"service", "verify", "catalogue", "mjcf", "xacro", "symbolic", "plot", "logs", "dask", "calibration"}
+    assert named == {"service", "verify", "catalogue", "mjcf", "xacro", "symbolic", "plot", "logs", "dask", "calibration", "collision"}
     assert not named & {"test", "bench", "ik-baselines"}  # not the benchmarks' baselines
 
 
@@ -115,6 +115,10 @@ def test_fk_and_jacobians_work_without_any_extra():
                  "'d': 0, 'theta': 0}]}, timeout=None)"),
     ("xacro", "__import__('kinematics.io.xacro').io.xacro.parse_xacro('<robot name=\"r\"><link name=\"a\"/></robot>')"),
     ("dask", "__import__('kinematics.distributed').distributed._dask()"),
+    ("collision", "__import__('kinematics.usecases').usecases.collision(kinematics.default_catalogue().get('planar_2r'), "
+                  "[0.1, 0.2])"),
+    ("calibration", "__import__('kinematics.usecases').usecases.calibration_poses("
+                    "kinematics.default_catalogue().get('planar_2r'), 4)"),
 ])
 def test_a_missing_extra_names_the_pip_install_to_run(extra, code):
     out = _lean(f"""

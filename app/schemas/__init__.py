@@ -11,6 +11,7 @@ importable from ``app.schemas`` itself.
 from pydantic import BaseModel
 
 from .calibration import *  # noqa: F403
+from .collision import *  # noqa: F403
 from .common import *  # noqa: F403
 from .common import (_BASE_DESC, _FLOATING_BASE_DESC, _LIMITS_DESC, _NORMALIZE_DESC, _POINT_DESC,  # noqa: F401
                      _Q_DESC, _REPRESENTATION_DESC, _TOOL_DESC)
@@ -30,8 +31,10 @@ from .common import Problem
 from .velocity import VelocityRequest
 from .workspace import WorkspaceRequest
 from .calibration import CalibrationPosesRequest, CalibrationRequest
+from .collision import CollisionRequest
 
 #: the request schemas whose JSON Schema the OpenAPI document lists (bodies some handlers read themselves)
 REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, VelocityRequest,
                                                 WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
-                                                AxesDescriptionIn, CalibrationRequest, CalibrationPosesRequest, Problem)
+                                                AxesDescriptionIn, CalibrationRequest, CalibrationPosesRequest,
+                                                CollisionRequest, Problem)

@@ -12,6 +12,10 @@ so never opened -- and refuses, naming the member:
   from the central directory *before* anything is extracted, then enforced while reading,
   as sizes can lie), and -- gzip -- a stream that decompresses to more than
   ``max_stream_bytes`` (a tar of zeros compresses a thousandfold).
+
+:func:`read_meshes` reads the mesh members (STL, OBJ, DAE) into memory -- never onto disk --
+with the same refusals and per-mesh and per-archive byte caps (:class:`MeshLimits`): the only
+meshes an upload's collision geometry may use (:mod:`kinematics.io.collision_geometry`).
 """
 
 from __future__ import annotations
@@ -198,3 +202,100 @@ def extract(data: bytes, dest: os.PathLike | str, *, limits: ArchiveLimits = DEF
     if kind in ("gzip", "tar"):
         return _extract_tar(data, dest, limits, compressed=kind == "gzip")
     raise ArchiveError("the body is not a zip, gzip or tar archive")
+
+
+#: mesh members read into memory by :func:`read_meshes` (never written to disk)
+MESH_SUFFIXES = (".stl", ".obj", ".dae")
+
+
+@dataclass(frozen=True)
+class MeshLimits:
+    """Bounds on the meshes read from one archive: bytes of one mesh, bytes of all of them."""
+
+    max_mesh_bytes: int = 32 * MIB
+    max_total_bytes: int = 128 * MIB
+
+
+DEFAULT_MESH_LIMITS = MeshLimits()
+
+
+def read_meshes(data: bytes, *, limits: ArchiveLimits = DEFAULT_ARCHIVE_LIMITS,
+                mesh_limits: MeshLimits = DEFAULT_MESH_LIMITS) -> tuple[dict[str, bytes], list[str]]:
+    """The mesh members (:data:`MESH_SUFFIXES`) of the archive ``data``, in memory: ``({member path:
+    bytes}, warnings)``. Same refusals as :func:`extract` (hostile names, links, devices, members,
+    the decompressed-stream cap); a mesh over ``max_mesh_bytes`` -- by its header and while
+    reading, as sizes can lie -- or past ``max_total_bytes`` is left out with a warning."""
+    kind = archive_kind(data)
+    out: dict[str, bytes] = {}
+    warnings: list[str] = []
+    total = 0
+
+    def take(rel: PurePosixPath, size: int, read) -> None:
+        nonlocal total
+        name = str(rel)
+        if size > mesh_limits.max_mesh_bytes:
+            warnings.append(f"archive mesh {name!r} is larger than {mesh_limits.max_mesh_bytes} bytes; not read")
+            return
+        if total + size > mesh_limits.max_total_bytes:
+            warnings.append(f"archive mesh {name!r} is past the {mesh_limits.max_total_bytes} bytes of meshes "
+                            "read from one archive; not read")
+            return
+        content = read(size + 1)
+        if len(content) > size:
+            warnings.append(f"archive mesh {name!r} is larger than its header says; not read")
+            return
+        if name in out:
+            raise ArchiveError(f"archive member {name!r} appears twice")
+        total += len(content)
+        out[name] = content
+
+    if kind == "zip":
+        try:
+            zf = zipfile.ZipFile(io.BytesIO(data))
+            infos = zf.infolist()
+        except (zipfile.BadZipFile, zipfile.LargeZipFile, ValueError, EOFError) as exc:
+            raise ArchiveError(f"the body is not a readable zip archive: {exc}") from None
+        if len(infos) > limits.max_members:
+            raise ArchiveTooLargeError(f"the archive has {len(infos)} members; the limit is {limits.max_members}")
+        for info in infos:
+            rel = member_path(info.filename)
+            ftype = stat.S_IFMT((info.external_attr >> 16) & 0xFFFF)
+            if ftype == stat.S_IFLNK:
+                raise ArchiveError(f"archive member {info.filename!r} is a symbolic link; links are refused")
+            if ftype not in (0, stat.S_IFREG, stat.S_IFDIR):
+                raise ArchiveError(f"archive member {info.filename!r} is not a regular file")
+            if rel is None or info.is_dir() or not rel.name.lower().endswith(MESH_SUFFIXES) or info.flag_bits & 0x1:
+                continue
+            try:
+                with zf.open(info) as fh:
+                    take(rel, info.file_size, fh.read)
+            except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, NotImplementedError, RuntimeError) as exc:
+                raise ArchiveError(f"archive member {info.filename!r} cannot be read: {exc}") from None
+        return out, warnings
+    if kind not in ("gzip", "tar"):
+        raise ArchiveError("the body is not a zip, gzip or tar archive")
+    raw = io.BytesIO(data)
+    stream = _CappedReader(gzip.GzipFile(fileobj=raw, mode="rb") if kind == "gzip" else raw, limits.max_stream_bytes)
+    members = 0
+    try:
+        with tarfile.open(fileobj=io.BufferedReader(stream, 1 * MIB), mode="r|") as tf:
+            for member in tf:
+                members += 1
+                if members > limits.max_members:
+                    raise ArchiveTooLargeError(f"the archive has more than {limits.max_members} members")
+                rel = member_path(member.name)
+                if member.issym() or member.islnk():
+                    raise ArchiveError(f"archive member {member.name!r} is a link; links are refused")
+                if member.isdir():
+                    continue
+                if not member.isfile():
+                    raise ArchiveError(f"archive member {member.name!r} is not a regular file (a device or FIFO)")
+                if rel is None or not rel.name.lower().endswith(MESH_SUFFIXES):
+                    continue
+                fh = tf.extractfile(member)
+                take(rel, member.size, fh.read if fh else (lambda n: b""))
+    except (tarfile.TarError, gzip.BadGzipFile, zlib.error, EOFError, OSError) as exc:
+        if isinstance(exc, ArchiveError):
+            raise
+        raise ArchiveError(f"the body is not a readable tar archive: {exc}") from None
+    return out, warnings

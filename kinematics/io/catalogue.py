@@ -20,6 +20,7 @@ from pathlib import Path
 
 from ..errors import UnknownModelError, did_you_mean, install_command
 from ..model.robot import RobotModel
+from .collision_geometry import PackageMeshes, vouch_meshes
 from .dh_table import load_table, model_from_table
 from .urdf import load_urdf
 
@@ -91,7 +92,9 @@ class CatalogueEntry:
     def load(self) -> RobotModel:
         if self.source == "preset":
             return model_from_table(load_table(self.path))
-        return load_urdf(self.path)
+        model = load_urdf(self.path)
+        robots = next((p for p in self.path.parents if p.name == "robots"), None)
+        return vouch_meshes(model, PackageMeshes(robots)) if robots is not None else model
 
 
 class Catalogue:

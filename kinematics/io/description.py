@@ -29,6 +29,7 @@ from ..errors import ArchiveError, DescriptionFormatError, URDFError
 from ..model.robot import RobotModel
 from . import archive as archives
 from . import xacro as xacros
+from .collision_geometry import ArchiveMeshes, vouch_meshes, with_geometry_warnings
 from .mjcf import parse_mjcf
 from .urdf import DEFAULT_MAX_LINKS, _read_xml, parse_urdf, xacro_use
 
@@ -71,6 +72,10 @@ class Loaded:
     container: str | None = None
     entry: str | None = None
     args: Mapping[str, str] | None = None
+    #: an archive's mesh members (the only meshes an upload's collision geometry may read), else None
+    meshes: "ArchiveMeshes | None" = None
+    #: what reading the archive's meshes left out
+    mesh_warnings: tuple[str, ...] = ()
 
 
 def load_description(data: bytes, *, args: Mapping[str, object] | None = None, entry: str | None = None,
@@ -91,17 +96,17 @@ def load_description(data: bytes, *, args: Mapping[str, object] | None = None, e
             raise DescriptionFormatError(f"xacro arguments were given, but the body is {_named(fmt)}, not xacro")
     if fmt == "urdf":
         try:
-            return Loaded(parse_urdf(data, max_links=max_links), "urdf")
+            return Loaded(with_geometry_warnings(parse_urdf(data, max_links=max_links)), "urdf")
         except URDFError as exc:
             if _looks_like_xml(data):
                 raise
             raise DescriptionFormatError(f"the body is not a robot description: neither XML (URDF, xacro, MJCF) "
                                          f"nor a zip, gzip or tar archive ({exc})") from None
     if fmt == "mjcf":
-        return Loaded(parse_mjcf(data, max_links=max_links), "mjcf")
+        return Loaded(with_geometry_warnings(parse_mjcf(data, max_links=max_links)), "mjcf")
     if fmt == "xacro":
         model = xacros.parse_xacro(data, args=checked, limits=xacro_limits, max_links=max_links)
-        return Loaded(model, "xacro", args=checked)
+        return Loaded(with_geometry_warnings(model), "xacro", args=checked)
     with tempfile.TemporaryDirectory(prefix="kin-archive-") as tmp:
         root = Path(tmp)
         files = archives.extract(data, root, limits=archive_limits)
@@ -123,7 +128,16 @@ def load_description(data: bytes, *, args: Mapping[str, object] | None = None, e
                 kind = "xacro"
         else:
             raise ArchiveError(f"archive member {chosen!r} is {_named(kind)}, not a robot description")
-        return Loaded(model, kind, container=fmt, entry=chosen, args=checked)
+        mesh_files, mesh_warnings = archives.read_meshes(data, limits=archive_limits)
+        packages = {name: path.resolve().relative_to(root.resolve()).as_posix()
+                    for name, path in xacros.find_packages([root]).items()
+                    if path.resolve().is_relative_to(root.resolve())}
+        meshes = ArchiveMeshes(mesh_files, {k: ("" if v == "." else v) for k, v in packages.items()},
+                               base="" if "/" not in chosen else PurePosixPath(chosen).parent.as_posix(),
+                               extracted_root=str(root))
+        model = with_geometry_warnings(vouch_meshes(model, meshes))
+        return Loaded(model, kind, container=fmt, entry=chosen, args=checked, meshes=meshes,
+                      mesh_warnings=tuple(mesh_warnings))
 
 
 def _named(fmt: str) -> str:
@@ -177,4 +191,7 @@ def _has_content(el) -> bool:
 
 def model_with_format(loaded: Loaded) -> RobotModel:
     """The loaded model with its ``format`` set (what the registry stores and serves)."""
-    return loaded.model if loaded.model.format == loaded.format else replace(loaded.model, format=loaded.format)
+    if loaded.model.format == loaded.format:
+        return loaded.model
+    model = replace(loaded.model, format=loaded.format)
+    return vouch_meshes(model, loaded.meshes) if loaded.meshes is not None else model

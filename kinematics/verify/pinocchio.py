@@ -333,3 +333,105 @@ def _mjcf_joint_q(model: RobotModel, q: np.ndarray, pm, jid: int) -> np.ndarray:
         return q[first:first + nq]
     value = q[model.slot[name].q_start]
     return np.array([value] if nq == 1 else [np.cos(value), np.sin(value)])
+
+
+class PinocchioCollision:
+    """Pinocchio's collision model of the same URDF (``buildGeomFromUrdfString`` with
+    ``COLLISION``, meshes from ``package_dirs``: the installed packages) with collision pairs
+    for exactly the link ``pairs`` given -- every geometry object of one link against every one
+    of the other -- so its ``computeCollisions`` checks what ours does.
+
+    ``margin`` (m) is every pair's ``security_margin``. Links of ``pairs`` Pinocchio has no
+    geometry for raise :class:`ReferenceUnavailableError`."""
+
+    def __init__(self, model: RobotModel, pairs, package_dirs, margin: float = 0.0):
+        self.ref = reference_for(model)
+        pm = self.ref.pin_model
+        try:
+            self.geom_model = pin.buildGeomFromUrdfString(pm, model.urdf, pin.GeometryType.COLLISION,
+                                                          package_dirs=[str(p) for p in package_dirs])
+        except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain errors
+            raise ReferenceUnavailableError(f"Pinocchio cannot load the collision geometry of {model.name!r}: {exc}") from None
+        gm = self.geom_model
+        by_link: dict[str, list[int]] = {}
+        for gid, obj in enumerate(gm.geometryObjects):
+            by_link.setdefault(pm.frames[obj.parentFrame].name, []).append(gid)
+        self.by_link = by_link
+        self.pairs = [tuple(p) for p in pairs]
+        self.owner: list[int] = []  # collision pair k -> index into self.pairs
+        for k, (a, b) in enumerate(self.pairs):
+            for name in (a, b):
+                if name not in by_link:
+                    raise ReferenceUnavailableError(f"Pinocchio has no collision geometry for link {name!r}")
+            for ga in by_link[a]:
+                for gb in by_link[b]:
+                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
+                    self.owner.append(k)
+        self.owner_array = np.array(self.owner, dtype=np.intp)
+        self.geom_data = gm.createData()
+        for req in self.geom_data.collisionRequests:
+            req.security_margin = float(margin)
+        self.data = pm.createData()
+
+    def collisions(self, q: np.ndarray) -> list[tuple[str, str]]:
+        """The link pairs in collision at our ``q`` (``pairs`` order)."""
+        pin.computeCollisions(self.ref.pin_model, self.data, self.geom_model, self.geom_data,
+                              self.ref.to_pinocchio_q(np.asarray(q, dtype=float)), False)
+        hit = set()
+        for k, res in enumerate(self.geom_data.collisionResults):
+            if res.isCollision():
+                hit.add(self.owner[k])
+        return [self.pairs[k] for k in sorted(hit)]
+
+    def distances(self, q: np.ndarray) -> np.ndarray:
+        """(P,) each link pair's distance (the minimum over its geometry pairs) at our ``q``."""
+        pin.computeDistances(self.ref.pin_model, self.data, self.geom_model, self.geom_data,
+                             self.ref.to_pinocchio_q(np.asarray(q, dtype=float)))
+        d = np.array([r.min_distance for r in self.geom_data.distanceResults])
+        out = np.full(len(self.pairs), np.inf)
+        np.minimum.at(out, self.owner_array, d)
+        return out
+
+    def run_loop(self, Qpin: np.ndarray) -> int:
+        """Pinocchio's own loop: ``computeCollisions`` on every row of ``Qpin`` (Pinocchio's q);
+        the count of configurations in collision (what a benchmark times)."""
+        pm, data, gm, gd = self.ref.pin_model, self.data, self.geom_model, self.geom_data
+        return sum(bool(pin.computeCollisions(pm, data, gm, gd, q, False)) for q in Qpin)
+
+
+@dataclass(frozen=True)
+class CollisionAgreement:
+    """How our collision answers compare with Pinocchio's over a batch: ``configurations``,
+    ``same_pairs`` (configurations with the same colliding pairs), ``mismatches`` (their indices),
+    ``max_distance_error`` (largest |ours - Pinocchio's| of the minimum distance over the pairs,
+    configurations where both are positive; None without distances)."""
+
+    configurations: int
+    same_pairs: int
+    mismatches: tuple[int, ...]
+    max_distance_error: float | None = None
+    reference: str = REFERENCE_NAME
+
+    @property
+    def fraction(self) -> float:
+        return self.same_pairs / max(self.configurations, 1)
+
+
+def compare_collision(model: RobotModel, Q: np.ndarray, pairs, package_dirs, ours, margin: float = 0.0,
+                      distances=None) -> CollisionAgreement:
+    """Compare ``ours`` (per configuration of ``Q``, the list of colliding link pairs) and, when
+    given, ``distances`` ((N,) our minimum distance over ``pairs``) with Pinocchio's on the same
+    geometry and pairs."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    pc = PinocchioCollision(model, pairs, package_dirs, margin)
+    mismatches = []
+    worst = 0.0
+    for n, q in enumerate(Q):
+        if sorted(map(tuple, ours[n])) != sorted(pc.collisions(q)):
+            mismatches.append(n)
+        if distances is not None:
+            theirs = float(np.min(pc.distances(q))) if pairs else np.inf
+            if theirs > 0 and distances[n] > 0 and np.isfinite(theirs):
+                worst = max(worst, abs(theirs - float(distances[n])))
+    return CollisionAgreement(len(Q), len(Q) - len(mismatches), tuple(mismatches),
+                              worst if distances is not None else None)

@@ -1,0 +1,99 @@
+"""Self-collision of configurations, and the allowed-collision matrix they are checked with.
+
+Geometry is the URDF's ``<collision>`` elements (:mod:`kinematics.io.collision_geometry`: primitives
+always; meshes only from the installed catalogue packages or an uploaded archive); the checked
+pairs are those the model's allowed-collision matrix leaves enabled
+(:mod:`kinematics.algorithms.collision_matrix`); coal answers each pair
+(:mod:`kinematics.algorithms.collision`).
+
+>>> from kinematics.io import default_catalogue
+>>> ur5 = default_catalogue().get("ur5")
+>>> folded = [0, -1.0, 2.9, 0, 0, 0]  # the elbow shut: the wrist inside the upper arm
+>>> answer = collision(ur5, [[0, -1.57, 0, -1.57, 0, 0], folded], samples=300)
+>>> answer.colliding.tolist(), answer.pairs[1][:2]
+([False, True], [('shoulder_link', 'wrist_2_link'), ('upper_arm_link', 'wrist_1_link')])
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ..algorithms import self_collision as _sc
+from ..algorithms.collision_matrix import DEFAULT_SAMPLES, CollisionMatrix
+from ..errors import CollisionError
+from ..model.robot import RobotModel
+from .query import Query
+
+#: the most configurations one matrix may sample
+MAX_MATRIX_SAMPLES = 1_000_000
+
+
+@dataclass(frozen=True)
+class CollisionAnswer:
+    """Self-collision of one configuration or a batch of N.
+
+    ``colliding`` (N,) bool; ``pairs`` per configuration the link pairs in collision (each in
+    ``links`` order); with distances ``min_distance`` (N,) the minimum over the checked pairs (m;
+    negative: penetration, where coal measures it; inf when no pair is checked), ``closest`` per
+    configuration the pair achieving it (or None) and ``points`` (N, 2, 3) its witness points in
+    the root frame; ``checked`` the pairs looked at, ``links`` those with collision geometry,
+    ``warnings`` what the geometry left out."""
+
+    joint_names: tuple[str, ...]
+    is_batch: bool
+    colliding: np.ndarray
+    pairs: list
+    checked: list
+    links: tuple[str, ...]
+    warnings: tuple[str, ...]
+    min_distance: np.ndarray | None = None
+    closest: list | None = None
+    points: np.ndarray | None = None
+
+
+def _samples(samples: int) -> int:
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_MATRIX_SAMPLES:
+        raise CollisionError(f"samples: {samples!r}; give an integer in [1, {MAX_MATRIX_SAMPLES}]")
+    return int(samples)
+
+
+def collision(query: Query | RobotModel, q: Any, *, distance: bool = False, margin: float = 0.0,
+              samples: int = DEFAULT_SAMPLES, cache_dir: os.PathLike | str | None = None,
+              **options: Any) -> CollisionAnswer:
+    """Self-collision of ``q`` (one configuration or a batch, any form the query reads) on the
+    enabled pairs of the model's allowed-collision matrix (``samples`` configurations; kept in
+    ``cache_dir``). ``margin`` (m, >= 0): closer than that counts as colliding. ``distance``:
+    also the minimum distance, the closest pair and its witness points."""
+    query = Query.of(query, **options)
+    if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not np.isfinite(margin) or margin < 0:
+        raise CollisionError(f"margin: {margin!r}; give a finite distance >= 0 m")
+    Q, is_batch = query.joints(q)
+    model = query.robot
+    cm = _sc.geometry(model)
+    checked = _sc.matrix(model, _samples(samples), cache_dir=cache_dir).enabled()
+    r = cm.check(Q, checked, margin=float(margin), distance=bool(distance))
+    return CollisionAnswer(model.q_labels, is_batch, r.colliding, r.pairs, checked, cm.links, cm.warnings,
+                           r.min_distance, r.closest, r.points)
+
+
+def collision_matrix(query: Query | RobotModel, samples: int = DEFAULT_SAMPLES, *,
+                     cache_dir: os.PathLike | str | None = None, user: Sequence[Sequence[str]] = (),
+                     progress: Callable[[int], None] | None = None, **options: Any) -> CollisionMatrix:
+    """The model's allowed-collision matrix: ``adjacent``, ``always`` and ``never`` pairs over
+    ``samples`` random configurations (computed once, kept in ``cache_dir``), and ``user`` pairs;
+    ``progress(k)`` is told the configurations sampled so far."""
+    query = Query.of(query, **options)
+    return _sc.matrix(query.robot, _samples(samples), cache_dir=cache_dir, user=user, progress=progress)
+
+
+def collision_free(query: Query | RobotModel, Q: Any, *, margin: float = 0.0, samples: int = DEFAULT_SAMPLES,
+                   cache_dir: os.PathLike | str | None = None, **options: Any) -> np.ndarray:
+    """(N,) bool: which configurations of ``Q`` are free of self-collision (the matrix's enabled
+    pairs; closer than ``margin`` counts as colliding). For IK and workspace filters."""
+    query = Query.of(query, **options)
+    Q, _ = query.joints(Q)
+    return _sc.collision_free(query.robot, Q, margin=margin, samples=_samples(samples), cache_dir=cache_dir)
