@@ -1,0 +1,322 @@
+"""Every inverse-kinematics solution of a link's pose: closed forms where the chain has a family,
+a dense multistart search where it has none, each answer polished and checked on the real model.
+
+For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_solutions`
+
+1. folds the ``locked`` joints into the chain and names its family
+   (:mod:`kinematics.algorithms.ik_families`);
+2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_closed`,
+   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), or -- for a chain with no
+   closed form (``method: "numeric"``, a general 6R, chains of fewer joints) -- damped Newton
+   from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
+   finds what its seeds reach, it does not prove that nothing is missed);
+3. **polishes** every candidate with Newton steps on the real model's FK and Jacobian (the
+   compiled kernels), so that a near-family chain's closed form lands on the real solution;
+4. keeps only candidates whose FK (the FK kernel) is within the tolerances, merges duplicates
+   (revolute angles compared modulo 2π, within ``DUPLICATE``);
+5. applies the limits: ``"respect"`` lists every solution inside the limits, with each
+   ``q + 2πk`` copy of a revolute joint that fits (a ±2π joint gives two or three copies of a
+   branch); ``"ignore"`` lists each branch once, revolute angles in (−π, π];
+6. flags each solution ``within_limits`` (the listed values) and ``singular`` (the smallest
+   singular value of the free joints' 6 x n Jacobian below ``SINGULAR`` times the largest).
+
+Unreachable targets have ``count`` 0. A near-family chain has its solution count checked against
+the ideal chain's: ``complete`` is False for a target where a branch was lost in the polish.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..engine import ik_closed
+from ..engine.poe import PoEModel, compile_model
+from ..errors import KinematicsError
+from ..model.robot import RobotModel
+from ..spatial.lie import so3_log
+from ..spatial.transforms import inverse_transform
+from ..tolerances import LIMIT_TOLERANCE
+from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
+from .ik_families import Chain, Family, detect, reduce_chain
+
+LIMIT_POLICIES = ("respect", "ignore")
+METHODS = ("auto", "analytic", "numeric")
+#: Newton steps on the real model after the closed form (exact family, near family) and in the search
+POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 30, 80
+#: seeds of the multistart search (per target)
+SEARCH_SEEDS = 512
+#: two solutions closer than this (rad or m, largest joint difference) are one
+DUPLICATE = 1e-6
+#: σ_min / σ_max of the Jacobian below this: a singular configuration
+SINGULAR = 1e-7
+
+
+@dataclass(frozen=True, eq=False)
+class AllSolutions:
+    """Every solution of N targets.
+
+    q: (N, K, dof) padded with NaN (K the largest count); count: (N,); within_limits, singular:
+    (N, K) bool (False in padding); position_error (metres), rotation_error (radians): (N, K), NaN in
+    padding; family: the chain's :class:`~kinematics.algorithms.ik_families.Family`; method:
+    ``"analytic"`` or ``"search"``; complete: (N,) False where a near-family branch was lost.
+    """
+
+    q: np.ndarray
+    count: np.ndarray
+    within_limits: np.ndarray
+    singular: np.ndarray
+    position_error: np.ndarray
+    rotation_error: np.ndarray
+    family: Family
+    method: str
+    complete: np.ndarray
+
+
+def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    e = np.empty((F.shape[0], 6))
+    e[:, :3] = targets[:, :3, 3] - F[:, :3, 3]
+    e[:, 3:] = so3_log(targets[:, :3, :3] @ np.swapaxes(F[:, :3, :3], 1, 2))
+    return e
+
+
+def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns: np.ndarray, steps: int,
+           tool: np.ndarray | None = None, position_only: bool = False, damped: bool = False) -> np.ndarray:
+    """``steps`` Newton steps (damped least squares with ``damped``) moving the ``columns`` of ``Q``
+    (K, dof) towards ``targets`` (K, 4, 4); returns the new Q (K, dof)."""
+    Q = np.array(Q, dtype=float)
+    rows = slice(0, 3) if position_only else slice(0, 6)
+    n = len(columns)
+    for _ in range(steps):
+        F = poe.fk(Q, [link], tool=tool)[:, 0]
+        e = _errors6(F, targets)[:, rows]
+        J = poe.jacobian(Q, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
+        Jt = np.swapaxes(J, 1, 2)
+        lam = (0.5 * np.sum(e * e, axis=1) if damped else np.zeros(len(Q))) + 1e-14
+        A = Jt @ J + lam[:, None, None] * np.eye(n)
+        dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
+        if damped:  # a bounded step far from the solution
+            big = np.abs(dq).max(axis=1, initial=0.0)
+            dq *= np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))[:, None]
+        Q[:, columns] += dq
+    return Q
+
+
+def _halton(n: int, dim: int) -> np.ndarray:
+    """The first n points (n, dim) of the Halton sequence in [0, 1)^dim (bases: the first primes)."""
+    primes = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29][:dim]
+    out = np.empty((n, dim))
+    for d, b in enumerate(primes):
+        for i in range(n):
+            f, x, k = 1.0, 0.0, i + 1
+            while k > 0:
+                f /= b
+                x += f * (k % b)
+                k //= b
+            out[i, d] = x
+    return out
+
+
+def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
+    """(count, n) seeds of the chain's free joints: revolute over (−π, π], prismatic over its limits."""
+    u = _halton(count, chain.n)
+    lo = np.where(chain.revolute, -np.pi, model.lower_limits[chain.columns])
+    hi = np.where(chain.revolute, np.pi, model.upper_limits[chain.columns])
+    lo = np.where(np.isfinite(lo), lo, -1.0)
+    hi = np.where(np.isfinite(hi), hi, 1.0)
+    return lo + u * (hi - lo)
+
+
+def _closed_form_candidates(fam: Family, T_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
+    ideal = fam.ideal
+    targets = inverse_transform(T_root) if fam.reversed else T_root
+    G = np.ascontiguousarray(targets @ inverse_transform(ideal.M))
+    N = G.shape[0]
+    Q = np.zeros((N, ik_closed.MAX_CANDIDATES, 6))
+    count = np.zeros(N, dtype=np.int64)
+    flag = np.zeros((N, ik_closed.MAX_CANDIDATES), dtype=np.int64)
+    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
+    if fam.kernel == "spherical_wrist":
+        ik_closed.spherical_wrist(G, h, r, not bool(ideal.revolute[2]), np.ascontiguousarray(fam.centre),
+                                  fam.position, Q, count, flag)
+    else:
+        ik_closed.three_parallel(G, h, r, np.ascontiguousarray(fam.centre), Q, count, flag)
+    if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
+        Q = -Q[:, :, ::-1]
+    return Q, count
+
+
+def _wrap_revolute(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray:
+    q = q.copy()
+    cols = chain.columns[chain.revolute]
+    w = np.mod(q[..., cols] + np.pi, 2 * np.pi) - np.pi
+    q[..., cols] = np.where(w <= -np.pi + 1e-15, np.pi, w)
+    return q
+
+
+def _dedupe(Q: np.ndarray, chain: Chain) -> np.ndarray:
+    """Indices of distinct rows of Q (already wrapped), the first of each group kept."""
+    keep: list[int] = []
+    rev = chain.revolute
+    cols = chain.columns
+    for i in range(len(Q)):
+        qi = Q[i, cols]
+        dup = False
+        for j in keep:
+            d = qi - Q[j, cols]
+            d = np.where(rev, np.abs(np.mod(d + np.pi, 2 * np.pi) - np.pi), np.abs(d))
+            if d.max(initial=0.0) <= DUPLICATE:
+                dup = True
+                break
+        if not dup:
+            keep.append(i)
+    return np.array(keep, dtype=np.intp)
+
+
+def _copies(model: RobotModel, chain: Chain, q: np.ndarray) -> list[np.ndarray]:
+    """Every q + 2πk copy (revolute joints with limits) within the limits; [] when none fits."""
+    options = []
+    lo, hi = model.lower_limits, model.upper_limits
+    cont = model.continuous
+    for c, rev in zip(chain.columns, chain.revolute):
+        v = q[c]
+        if rev and not cont[c] and np.isfinite(lo[c]) and np.isfinite(hi[c]):
+            k0 = int(np.ceil((lo[c] - LIMIT_TOLERANCE - v) / (2 * np.pi)))
+            k1 = int(np.floor((hi[c] + LIMIT_TOLERANCE - v) / (2 * np.pi)))
+            vals = [min(max(v + 2 * np.pi * k, lo[c]), hi[c]) for k in range(k0, k1 + 1)]
+        else:
+            vals = [v] if (lo[c] - LIMIT_TOLERANCE <= v <= hi[c] + LIMIT_TOLERANCE) else []
+            vals = [min(max(x, lo[c]), hi[c]) for x in vals]
+        if not vals:
+            return []
+        options.append(vals)
+    out = [q.copy()]
+    for c, vals in zip(chain.columns, options):
+        nxt = []
+        for base in out:
+            for v in vals:
+                b = base.copy(); b[c] = v; nxt.append(b)
+        out = nxt
+    return out
+
+
+def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
+                  tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
+                  method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
+                  position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
+                  rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE,
+                  search_seeds: int = SEARCH_SEEDS) -> AllSolutions:
+    """Every solution putting ``link`` (or ``tool`` on it) at ``targets`` (N, 4, 4), root frame
+    unless ``base`` (``T_world_root``, (4, 4) or (N, 4, 4)) is given. ``seed`` (dof,) or (N, dof):
+    solutions nearest it first, and the values of joints off the chain. See the module text."""
+    if limits not in LIMIT_POLICIES:
+        raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
+    if method not in METHODS:
+        raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
+    chain = reduce_chain(model, link, locked, tool)
+    fam = detect(chain)
+    if fam.name == "redundant":
+        raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
+                              f"lock {chain.n - 6} of them (locked)")
+    if method == "analytic" and not fam.closed_form:
+        raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
+                              "use 'auto' or 'numeric'")
+    position_only = mode == "position"
+    use_closed = fam.closed_form and method != "numeric" and not position_only
+    poe = compile_model(model)
+    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    N = targets.shape[0]
+    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
+    dof = model.dof
+    base_q = np.zeros((N, dof))
+    if seed is not None:
+        base_q[:] = np.broadcast_to(np.asarray(seed, dtype=float), (N, dof))
+    for name, v in chain.locked.items():
+        base_q[:, model.q_index[name]] = v
+    if use_closed:
+        cand, counts = _closed_form_candidates(fam, T_root)
+        steps, damped = (NEAR_STEPS if fam.near else POLISH_STEPS), False
+    else:
+        seeds = _search_seeds(model, chain, search_seeds)
+        cand = np.broadcast_to(seeds, (N,) + seeds.shape)
+        counts = np.full(N, len(seeds))
+        steps, damped = SEARCH_STEPS, True
+    owner = np.repeat(np.arange(N), counts)
+    Q = base_q[owner].copy()
+    rows = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
+    Q[:, chain.columns] = rows
+    Tt = T_root[owner]
+    if len(Q):
+        Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
+        if damped:  # then undamped steps: quadratic convergence onto the solutions
+            Q = newton(poe, link, Q, Tt, chain.columns, POLISH_STEPS, tool, position_only, False)
+    Q = _wrap_revolute(model, chain, Q)
+    ok = np.zeros(len(Q), bool)
+    if len(Q):
+        ok = np.all(np.isfinite(Q), axis=1)
+        Qs = np.where(ok[:, None], Q, 0.0)
+        p, r = pose_errors(poe.fk(Qs, [link], tool=tool)[:, 0], Tt)
+        ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    lists: list[list[np.ndarray]] = []
+    complete = np.ones(N, bool)
+    for n in range(N):
+        idx = np.flatnonzero(ok & (owner == n))
+        sols = Q[idx][_dedupe(Q[idx], chain)] if idx.size else np.zeros((0, dof))
+        if use_closed and fam.near and len(sols) < _nominal_count(fam, T_root[n:n + 1]):
+            complete[n] = False
+        if limits == "respect":
+            expanded = [c for s in sols for c in _copies(model, chain, s)]
+        else:
+            expanded = list(sols)
+        if seed is not None and expanded:
+            d = [float(np.abs(s - base_q[n]).sum()) for s in expanded]
+            expanded = [expanded[i] for i in np.argsort(d, kind="stable")]
+        lists.append(expanded)
+    return _pack(model, poe, link, tool, chain, lists, T_root, fam, "analytic" if use_closed else "search", complete,
+                 position_only)
+
+
+def _nominal_count(fam: Family, T_root: np.ndarray) -> int:
+    """How many distinct solutions the ideal chain's closed form gives for one target (exactly on the ideal chain)."""
+    cand, counts = _closed_form_candidates(fam, T_root)
+    c = cand[0, :counts[0]]
+    rev = fam.chain.revolute
+    keep: list[np.ndarray] = []
+    for row in c:
+        if not np.all(np.isfinite(row)):
+            continue
+        if all(np.abs(np.where(rev, np.mod(row - k + np.pi, 2 * np.pi) - np.pi, row - k)).max() > DUPLICATE for k in keep):
+            keep.append(row)
+    # only candidates that are solutions of the ideal chain count (least-squares ones are not)
+    return len(keep) if counts[0] else 0
+
+
+def _pack(model, poe, link, tool, chain, lists, T_root, fam, method, complete, position_only) -> AllSolutions:
+    N = len(lists)
+    K = max((len(l) for l in lists), default=0)
+    dof = model.dof
+    q = np.full((N, K, dof), np.nan)
+    within = np.zeros((N, K), bool)
+    singular = np.zeros((N, K), bool)
+    pe = np.full((N, K), np.nan)
+    re = np.full((N, K), np.nan)
+    count = np.array([len(l) for l in lists], dtype=np.int64)
+    flat = [s for l in lists for s in l]
+    if flat:
+        Qf = np.array(flat)
+        owner = np.repeat(np.arange(N), count)
+        p, r = pose_errors(poe.fk(Qf, [link], tool=tool)[:, 0], T_root[owner])
+        J = poe.jacobian(Qf, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
+        if position_only:
+            J = J[:, :3]
+        s = np.linalg.svd(J, compute_uv=False)
+        sing = s[:, -1] <= SINGULAR * np.maximum(s[:, 0], 1e-300) if s.shape[1] >= chain.n else np.ones(len(Qf), bool)
+        inside = np.all((Qf >= model.lower_limits - LIMIT_TOLERANCE) & (Qf <= model.upper_limits + LIMIT_TOLERANCE), axis=1)
+        slot = np.concatenate([np.arange(c) for c in count])
+        q[owner, slot] = Qf
+        within[owner, slot] = inside
+        singular[owner, slot] = sing
+        pe[owner, slot] = p
+        re[owner, slot] = r
+    return AllSolutions(q, count, within, singular, pe, re, fam, method, complete)
