@@ -35,7 +35,7 @@ from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.lie import so3_log
-from ..spatial.transforms import inverse_transform
+from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain
@@ -43,7 +43,9 @@ from .ik_families import Chain, Family, detect, reduce_chain
 LIMIT_POLICIES = ("respect", "ignore")
 METHODS = ("auto", "analytic", "numeric")
 #: Newton steps on the real model after the closed form (exact family, near family) and in the search
-POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 30, 80
+POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 60, 100
+#: a near family's least-squares branch points are seeded this far (rad or m) on either side
+NEAR_SPREAD = 0.05
 #: seeds of the multistart search (per target)
 SEARCH_SEEDS = 512
 #: two solutions closer than this (rad or m, largest joint difference) are one
@@ -82,23 +84,44 @@ def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
 
 def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns: np.ndarray, steps: int,
            tool: np.ndarray | None = None, position_only: bool = False, damped: bool = False) -> np.ndarray:
-    """``steps`` Newton steps (damped least squares with ``damped``) moving the ``columns`` of ``Q``
-    (K, dof) towards ``targets`` (K, 4, 4); returns the new Q (K, dof)."""
+    """``steps`` Levenberg-Marquardt steps moving the ``columns`` of ``Q`` (K, dof) towards ``targets``
+    (K, 4, 4); returns the new Q (K, dof).
+
+    Each row keeps its own damping λ: a step that lowers the squared error is taken and λ falls
+    (/4, down to 1e-15: pure Newton, quadratic convergence), a step that does not is refused and λ
+    rises (x8). ``damped`` starts from λ = 1e-2 (far from a solution) instead of 1e-12, and bounds
+    every step to 0.5 rad (or m) per joint.
+    """
     Q = np.array(Q, dtype=float)
     rows = slice(0, 3) if position_only else slice(0, 6)
     n = len(columns)
+    K = len(Q)
+    if K == 0:
+        return Q
+    lam = np.full(K, 1e-2 if damped else 1e-12)
+
+    def error(Qm):
+        e = _errors6(poe.fk(Qm, [link], tool=tool)[:, 0], targets)[:, rows]
+        return e, np.sum(e * e, axis=1)
+
+    e, cost = error(Q)
     for _ in range(steps):
-        F = poe.fk(Q, [link], tool=tool)[:, 0]
-        e = _errors6(F, targets)[:, rows]
         J = poe.jacobian(Q, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
         Jt = np.swapaxes(J, 1, 2)
-        lam = (0.5 * np.sum(e * e, axis=1) if damped else np.zeros(len(Q))) + 1e-14
         A = Jt @ J + lam[:, None, None] * np.eye(n)
         dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
-        if damped:  # a bounded step far from the solution
+        if damped:
             big = np.abs(dq).max(axis=1, initial=0.0)
             dq *= np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))[:, None]
-        Q[:, columns] += dq
+        trial = Q.copy()
+        trial[:, columns] += dq
+        e2, cost2 = error(trial)
+        better = cost2 < cost
+        Q[better] = trial[better]
+        e[better], cost[better] = e2[better], cost2[better]
+        lam = np.where(better, np.maximum(lam / 4.0, 1e-15), np.minimum(lam * 8.0, 1e6))
+        if np.all(cost < 1e-30):
+            break
     return Q
 
 
@@ -127,7 +150,7 @@ def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
     return lo + u * (hi - lo)
 
 
-def _closed_form_candidates(fam: Family, T_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
     ideal = fam.ideal
     targets = inverse_transform(T_root) if fam.reversed else T_root
@@ -137,11 +160,13 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray) -> tuple[np.ndarray
     count = np.zeros(N, dtype=np.int64)
     flag = np.zeros((N, ik_closed.MAX_CANDIDATES), dtype=np.int64)
     h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
+    if spread is None:
+        spread = NEAR_SPREAD if fam.near else 0.0
     if fam.kernel == "spherical_wrist":
         ik_closed.spherical_wrist(G, h, r, not bool(ideal.revolute[2]), np.ascontiguousarray(fam.centre),
-                                  fam.position, Q, count, flag)
+                                  fam.position, spread, Q, count, flag)
     else:
-        ik_closed.three_parallel(G, h, r, np.ascontiguousarray(fam.centre), Q, count, flag)
+        ik_closed.three_parallel(G, h, r, np.ascontiguousarray(fam.centre), spread, Q, count, flag)
     if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
         Q = -Q[:, :, ::-1]
     return Q, count
@@ -263,7 +288,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     for n in range(N):
         idx = np.flatnonzero(ok & (owner == n))
         sols = Q[idx][_dedupe(Q[idx], chain)] if idx.size else np.zeros((0, dof))
-        if use_closed and fam.near and len(sols) < _nominal_count(fam, T_root[n:n + 1]):
+        if use_closed and fam.near and len(sols) < _nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance):
             complete[n] = False
         if limits == "respect":
             expanded = [c for s in sols for c in _copies(model, chain, s)]
@@ -277,19 +302,27 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                  position_only)
 
 
-def _nominal_count(fam: Family, T_root: np.ndarray) -> int:
-    """How many distinct solutions the ideal chain's closed form gives for one target (exactly on the ideal chain)."""
-    cand, counts = _closed_form_candidates(fam, T_root)
+def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> int:
+    """How many distinct solutions the *ideal* chain has for one target (its closed form's candidates
+    that meet the tolerances on the ideal chain's own FK)."""
+    cand, counts = _closed_form_candidates(fam, T_root, 0.0)
     c = cand[0, :counts[0]]
-    rev = fam.chain.revolute
+    if fam.reversed:
+        c = -c[:, ::-1]  # back to the ideal (reversed) chain's own joint values
+    ideal = fam.ideal
+    E = exp_screws(ideal.h, ideal.r, ideal.revolute, c)
+    F = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
+    for j in range(ideal.n):
+        F = F @ E[:, j]
+    F = F @ ideal.M
+    goal = inverse_transform(T_root) if fam.reversed else T_root
+    p, r = pose_errors(F, np.broadcast_to(goal, (len(c), 4, 4)))
+    rev = ideal.revolute
     keep: list[np.ndarray] = []
-    for row in c:
-        if not np.all(np.isfinite(row)):
-            continue
+    for row in c[(p <= position_tolerance) & (r <= rotation_tolerance)]:
         if all(np.abs(np.where(rev, np.mod(row - k + np.pi, 2 * np.pi) - np.pi, row - k)).max() > DUPLICATE for k in keep):
             keep.append(row)
-    # only candidates that are solutions of the ideal chain count (least-squares ones are not)
-    return len(keep) if counts[0] else 0
+    return len(keep)
 
 
 def _pack(model, poe, link, tool, chain, lists, T_root, fam, method, complete, position_only) -> AllSolutions:

@@ -4,7 +4,8 @@ A chain is given by its zero-configuration axes ``h`` (6, 3) (unit; a prismatic 
 direction), a point ``r`` (6, 3) on each revolute axis, and the joint kinds; a target by
 ``G = T M⁻¹`` (the product ``E1(q1) ... E6(q6)`` of the screw exponentials, M the home pose of the
 link), so every formula below is on the product's own screws. Each kernel writes up to
-``MAX_CANDIDATES`` candidate configurations per target (``Q`` (N, 16, 6), ``count`` (N,)) and
+``MAX_CANDIDATES`` candidate configurations per target (``spread`` > 0 for a chain near the family: a
+least-squares branch point becomes two seeds, see :func:`_spread`) (``Q`` (N, 16, 6), ``count`` (N,)) and
 their subproblem flags (``flag`` (N, 16): the largest of the subproblems used, see
 :mod:`kinematics.engine.subproblems`). Candidates are *candidates*: the caller polishes them on the
 real model and keeps only those whose FK meets the tolerance.
@@ -92,15 +93,30 @@ def _point(G, x):
 
 
 @nb.njit(**_JIT)
-def _position_part(p, h, r, c, position, out, flags):
+def _spread(sols, n, flag, spread):
+    """A least-squares answer φ of a branching subproblem as the two seeds φ ± spread (spread > 0):
+    on a chain *near* the family, the real solutions may be a close pair where the ideal chain has
+    none (a target by the edge of the reach), and Newton from φ alone would find one of the pair."""
+    if flag == 1 and n == 1 and spread > 0.0:
+        out = np.empty(2)
+        out[0] = sols[0] - spread
+        out[1] = sols[0] + spread
+        return out, 2
+    return sols, n
+
+
+@nb.njit(**_JIT)
+def _position_part(p, h, r, c, position, out, flags, spread):
     """The (q1, q2, q3) with ``E1 E2 E3 c = p`` into ``out`` (4, 3); returns their number."""
     n = 0
     if position == POS_PARALLEL_23:
         t1, n1, f1 = sp4(h[1], _sub(p, r[0]), h[0], dot(h[1], _sub(c, r[0])))
+        t1, n1 = _spread(t1, n1, f1, spread)
         for i in range(n1):
             q1 = -t1[i]
             pp = _add(r[0], rotate(h[0], -q1, _sub(p, r[0])))
             t3, n3, f3 = sp3(_sub(c, r[2]), _sub(r[1], r[2]), h[2], _norm(_sub(pp, r[1])))
+            t3, n3 = _spread(t3, n3, f3, spread)
             for j in range(n3):
                 x = _add(r[2], rotate(h[2], t3[j], _sub(c, r[2])))
                 q2, f2 = sp1(_sub(x, r[1]), _sub(pp, r[1]), h[1])
@@ -116,6 +132,7 @@ def _position_part(p, h, r, c, position, out, flags):
         m = 0
         if position == POS_INTERSECT_12:
             t3, n3, f3 = sp3(_sub(c, r[2]), _sub(o, r[2]), h[2], d)
+            t3, n3 = _spread(t3, n3, f3, spread)
             for j in range(n3):
                 xs[m] = _add(r[2], rotate(h[2], t3[j], _sub(c, r[2])))
                 q3s[m] = t3[j]
@@ -145,9 +162,11 @@ def _position_part(p, h, r, c, position, out, flags):
                 n += 1
     else:  # POS_PARALLEL_12
         t3, n3, f3 = sp4(h[0], _sub(c, r[2]), h[2], dot(h[0], _sub(p, r[2])))
+        t3, n3 = _spread(t3, n3, f3, spread)
         for j in range(n3):
             x = _add(r[2], rotate(h[2], t3[j], _sub(c, r[2])))
             t2, n2, f2 = sp3(_sub(x, r[1]), _sub(r[0], r[1]), h[1], _norm(_sub(p, r[0])))
+            t2, n2 = _spread(t2, n2, f2, spread)
             for i in range(n2):
                 y = _add(r[1], rotate(h[1], t2[i], _sub(x, r[1])))
                 q1, f1 = sp1(_sub(y, r[0]), _sub(p, r[0]), h[0])
@@ -158,7 +177,7 @@ def _position_part(p, h, r, c, position, out, flags):
 
 
 @nb.njit(**_JIT)
-def spherical_wrist(G, h, r, prismatic3, c, position, Q, count, flag):
+def spherical_wrist(G, h, r, prismatic3, c, position, spread, Q, count, flag):
     """Candidates of the spherical-wrist family for targets ``G`` (N, 4, 4) into ``Q``, ``count``, ``flag``."""
     pos = np.empty((4, 3))
     pflags = np.zeros(4, dtype=np.int64)
@@ -166,7 +185,7 @@ def spherical_wrist(G, h, r, prismatic3, c, position, Q, count, flag):
     for t in range(G.shape[0]):
         g = G[t]
         p = _point(g, c)
-        n_pos = _position_part(p, h, r, c, position, pos, pflags)
+        n_pos = _position_part(p, h, r, c, position, pos, pflags, spread)
         n = 0
         for a in range(n_pos):
             R = rot(h[0], pos[a, 0]) @ rot(h[1], pos[a, 1])
@@ -186,7 +205,7 @@ def spherical_wrist(G, h, r, prismatic3, c, position, Q, count, flag):
 
 
 @nb.njit(**_JIT)
-def three_parallel(G, h, r, c, Q, count, flag):
+def three_parallel(G, h, r, c, spread, Q, count, flag):
     """Candidates of the three-parallel family (axes 2 ∥ 3 ∥ 4, axes 5, 6 meeting at ``c``)."""
     s3 = 1.0 if dot(h[1], h[2]) > 0 else -1.0
     s4 = 1.0 if dot(h[1], h[3]) > 0 else -1.0
@@ -197,11 +216,13 @@ def three_parallel(G, h, r, c, Q, count, flag):
         p = _point(g, c)
         n = 0
         t1, n1, f1 = sp4(h[1], _sub(p, r[0]), h[0], dot(h[1], _sub(c, r[0])))
+        t1, n1 = _spread(t1, n1, f1, spread)
         for i in range(n1):
             q1 = -t1[i]
             R1 = rot(h[0], q1)
             a = R1.T @ (Rd @ h[5])
             t5, n5, f5 = sp4(h[1], h[5].copy(), h[4], dot(h[1], a))
+            t5, n5 = _spread(t5, n5, f5, spread)
             pp = _add(r[0], R1.T @ _sub(p, r[0]))
             for j in range(n5):
                 q5 = t5[j]
@@ -212,6 +233,7 @@ def three_parallel(G, h, r, c, Q, count, flag):
                 theta, f234 = sp1(u, R234 @ u, h[1])
                 p4 = _sub(pp, R234 @ _sub(c, r[3]))
                 t3, n3, f3 = sp3(_sub(r[3], r[2]), _sub(r[1], r[2]), h[2], _norm(_sub(p4, r[1])))
+                t3, n3 = _spread(t3, n3, f3, spread)
                 for k in range(n3):
                     x = _add(r[2], rotate(h[2], t3[k], _sub(r[3], r[2])))
                     q2, f2 = sp1(_sub(x, r[1]), _sub(p4, r[1]), h[1])
