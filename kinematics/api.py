@@ -33,6 +33,9 @@ from .algorithms.dh import urdf_to_dh
 from .algorithms.fk import forward_kinematics
 from .algorithms.ik import IKSolution, inverse_kinematics, pose_errors
 from .algorithms import ik as _ik
+from .algorithms import ik_all as _ik_all_mod
+from .algorithms import ik_path as _ik_path
+from .algorithms.ik_families import detect as _detect_family, reduce_chain as _reduce_chain
 from .algorithms.jacobian import jacobian as _jacobian
 from .algorithms.measures import conditioning
 from .algorithms.velocity import twists_in_world, velocities as _velocities
@@ -381,7 +384,9 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
        rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
        max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
        random_seed: int = 0, base: Any = None, point: Any = None, tool: Any = None, verify: bool = False,
-       budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False) -> IKAnswer:
+       budget: Budget = UNBOUNDED, floating_base: bool = False, normalize: bool = False,
+       solutions: str = "one", method: str = "auto", locked: dict | None = None,
+       limits: str = "respect") -> "IKAnswer | IKAllAnswer":
     """Joint values putting ``link`` (None: the first leaf link) at ``target``: one pose or a list
     (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array), ``T_world_link``.
     With ``point`` ([x, y, z] in the link frame) or ``tool`` (a pose ``T_link_tool``) the targets
@@ -394,7 +399,26 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
     the model on a free-flyer root joint (the answer has ``7 + n`` values); ``normalize``: of the seeds.
     Models with floating or planar joints are solved on the configuration manifold
     (:func:`kinematics.algorithms.ik.tree_inverse_kinematics`).
+
+    ``solutions="all"`` answers **every** solution (:class:`IKAllAnswer`,
+    :mod:`kinematics.algorithms.ik_all`): ``method`` ``"auto"`` (the closed form of the chain's
+    family where it has one, the multistart search otherwise), ``"analytic"`` (the closed form, or
+    an error) or ``"numeric"`` (the search); ``locked`` ``{joint: value}`` holds joints (a 7-dof arm
+    with one locked is a 6-joint chain); ``limits`` ``"respect"`` (every solution inside the limits,
+    ``q + 2πk`` copies included) or ``"ignore"`` (each branch once, revolute angles in (−π, π]).
+    ``solutions="one"`` with ``method="analytic"`` or ``locked``: the solution nearest the seed
+    (default: the middle of the limits) among all of them, else today's numerical answer.
     """
+    if solutions not in ("one", "all"):
+        raise KinematicsError(f"solutions: {solutions!r} is not one of one, all")
+    if solutions == "all" or method == "analytic" or locked:
+        return _ik_all(model, target, link=link, seed=seed, mode=mode, position_tolerance=position_tolerance,
+                       rotation_tolerance=rotation_tolerance, base=base, point=point, tool=tool, verify=verify,
+                       budget=budget, normalize=normalize, method=method, locked=locked, limits=limits,
+                       one=solutions == "one", max_iterations=max_iterations, restarts=restarts,
+                       random_seed=random_seed, floating_base=floating_base)
+    if method not in _ik_all_mod.METHODS:
+        raise KinematicsError(f"method: {method!r} is not one of {', '.join(_ik_all_mod.METHODS)}")
     model = model_for(model, floating_base)
     T, is_batch = pose_list(target, "target")
     N = T.shape[0]
@@ -429,6 +453,154 @@ def ik(model: RobotModel, target: Any, *, link: str | None = None, seed: Any = N
         position, rotation = pose_errors(theirs, T_root)
         verification = {"reference": REFERENCE_NAME, "position_error": position, "rotation_error": rotation}
     return IKAnswer(model, link, mode, is_batch, T, solution, verification)
+
+
+@dataclass(frozen=True, eq=False)
+class IKAllAnswer:
+    """Every IK solution of N targets (``is_batch``: the request gave a list).
+
+    ``q`` (N, K, dof) padded with NaN, ``count`` (N,), ``within_limits``, ``singular`` (N, K) bool,
+    ``position_error``, ``rotation_error`` (N, K), ``complete`` (N,): see
+    :class:`~kinematics.algorithms.ik_all.AllSolutions`; ``family`` (its name), ``method``
+    (``"analytic"`` or ``"search"``); ``verification``: Pinocchio's FK of every listed solution
+    (``max_position_error``, ``max_rotation_error`` against its target).
+    """
+
+    model: RobotModel
+    link: str
+    mode: str
+    is_batch: bool
+    targets: np.ndarray
+    family: str
+    method: str
+    q: np.ndarray
+    count: np.ndarray
+    within_limits: np.ndarray
+    singular: np.ndarray
+    position_error: np.ndarray
+    rotation_error: np.ndarray
+    complete: np.ndarray
+    locked: dict
+    verification: dict[str, Any] | None = None
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.model.joint_names
+
+    def solutions(self, n: int = 0) -> list[dict[str, Any]]:
+        """The solutions of target ``n`` as records ``{q, position_error, rotation_error, within_limits, singular}``."""
+        return [{"q": self.q[n, k].tolist(), "position_error": float(self.position_error[n, k]),
+                 "rotation_error": float(self.rotation_error[n, k]), "within_limits": bool(self.within_limits[n, k]),
+                 "singular": bool(self.singular[n, k])} for k in range(int(self.count[n]))]
+
+
+def _ik_all(model: RobotModel, target: Any, *, link, seed, mode, position_tolerance, rotation_tolerance, base, point,
+            tool, verify, budget, normalize, method, locked, limits, one, max_iterations, restarts, random_seed,
+            floating_base):
+    if floating_base:
+        raise KinematicsError("floating_base: every IK solution needs a fixed base (give the base pose as base)")
+    T, is_batch = pose_list(target, "target")
+    N = T.shape[0]
+    budget.check_batch(N)
+    if verify:
+        budget.check_verify(N)
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    # the work: candidates x Newton steps per target (the search: its seeds x its steps)
+    closed = _detect_family(_reduce_chain(model, link, locked)).closed_form and method != "numeric"
+    if closed:
+        budget.check_ik_work(N, 15, _ik_all_mod.NEAR_STEPS)
+    else:
+        budget.check_ik_work(N, _ik_all_mod.SEARCH_SEEDS - 1, _ik_all_mod.SEARCH_STEPS)
+    seeds = None
+    if seed is not None:
+        try:
+            S, _ = as_batch(model, _pose_values(model, seed), normalize)
+        except JointValueError as exc:
+            raise _prefixed(exc, "seed: ") from None
+        if S.shape[0] not in (1, N):
+            raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
+        seeds = S
+    elif one:
+        seeds = _ik.middle_of_limits(model)[None]
+    B = base_poses(base, N)
+    T_tool = tool_offset(point, tool)
+    sol = _ik_all_mod.all_solutions(model, link, T, base=B, tool=T_tool, locked=locked, limits=limits, method=method,
+                                    seed=seeds, mode=mode, position_tolerance=position_tolerance,
+                                    rotation_tolerance=rotation_tolerance)
+    if one:  # the solution nearest the seed, or today's numerical answer where there is none
+        q = np.where(sol.count[:, None] > 0, np.nan_to_num(sol.q[:, 0]) if sol.q.shape[1] else 0.0, np.nan)
+        missing = np.flatnonzero(sol.count == 0)
+        position = np.where(sol.count > 0, sol.position_error[:, 0] if sol.q.shape[1] else 0.0, np.nan)
+        rotation = np.where(sol.count > 0, sol.rotation_error[:, 0] if sol.q.shape[1] else 0.0, np.nan)
+        success = sol.count > 0
+        iterations = np.zeros(N, dtype=np.int64)
+        if missing.size:
+            fallback = inverse_kinematics(model, link, T[missing], None if seeds is None else seeds[missing % len(seeds)],
+                                          base=None if B is None else np.broadcast_to(B, (N, 4, 4))[missing], mode=mode,
+                                          position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
+                                          max_iterations=max_iterations, restarts=restarts, random_seed=random_seed,
+                                          tool=T_tool)
+            q[missing], position[missing], rotation[missing] = fallback.q, fallback.position_error, fallback.rotation_error
+            iterations[missing] = fallback.iterations
+            success[missing] = False  # an answer with a locked joint or the closed form's: none exists
+        return IKAnswer(model, link, mode, is_batch, T, IKSolution(q, success, position, rotation, iterations))
+    verification = None
+    if verify:
+        from .verify.pinocchio import REFERENCE_NAME, reference_for
+
+        frames = reference_for(model).frames([link], T_tool)
+        T_root = T if B is None else np.matmul(inverse_transform(B), T)
+        worst_p = worst_r = 0.0
+        for n in range(N):
+            for k in range(int(sol.count[n])):
+                theirs = frames.poses(sol.q[n, k])[link][None]
+                p, r = pose_errors(theirs, T_root[n:n + 1])
+                worst_p, worst_r = max(worst_p, float(p[0])), max(worst_r, float(r[0]))
+        verification = {"reference": REFERENCE_NAME, "max_position_error": worst_p, "max_rotation_error": worst_r}
+    return IKAllAnswer(model, link, mode, is_batch, T, sol.family.name, sol.method, sol.q, sol.count, sol.within_limits,
+                       sol.singular, sol.position_error, sol.rotation_error, sol.complete,
+                       dict(sol.family.chain.locked), verification)
+
+
+def ik_family(model: RobotModel, *, link: str | None = None, locked: dict | None = None) -> dict[str, Any]:
+    """The family of the chain to ``link`` with ``locked`` joints held: ``{link, joints, locked, family,
+    closed_form, max_solutions, subproblems, near}`` (:mod:`kinematics.algorithms.ik_families`)."""
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    chain = _reduce_chain(model, link, locked)
+    fam = _detect_family(chain)
+    return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict()}
+
+
+def ik_path(model: RobotModel, waypoints: Any, *, link: str | None = None, seed: Any = None, step: dict | None = None,
+            max_joint_step: float = _ik_path.DEFAULT_MAX_JOINT_STEP,
+            position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
+            rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE, locked: dict | None = None, base: Any = None,
+            point: Any = None, tool: Any = None, normalize: bool = False) -> "_ik_path.PathAnswer":
+    """A Cartesian path of ``link`` through ``waypoints`` (two or more poses, world frame) from ``seed``
+    (the start configuration): :func:`kinematics.algorithms.ik_path.cartesian_path`. ``step``:
+    ``{"position": m, "rotation": rad}``, the largest step between consecutive targets."""
+    W, _ = pose_list(waypoints, "waypoints")
+    link = model.leaf_links[0] if link is None else link
+    compile_model(model).link_indices([link])
+    q0 = None
+    if seed is not None:
+        try:
+            S, _ = as_batch(model, _pose_values(model, seed), normalize)
+        except JointValueError as exc:
+            raise _prefixed(exc, "seed: ") from None
+        if S.shape[0] != 1:
+            raise JointValueError("seed: give one start configuration")
+        q0 = S[0]
+    step = step or {}
+    B = base_poses(base, 1)
+    return _ik_path.cartesian_path(model, link, W, q0, base=None if B is None else B.reshape(-1, 4, 4)[0],
+                                   tool=tool_offset(point, tool), locked=locked,
+                                   step_position=float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
+                                   step_rotation=float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)),
+                                   max_joint_step=max_joint_step, position_tolerance=position_tolerance,
+                                   rotation_tolerance=rotation_tolerance)
 
 
 def workspace(model: RobotModel, link: str | None = None, *, samples: int = _workspace.DEFAULT_SAMPLES,

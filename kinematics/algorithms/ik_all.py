@@ -50,6 +50,8 @@ NEAR_SPREAD = 0.05
 SEARCH_SEEDS = 512
 #: two solutions closer than this (rad or m, largest joint difference) are one
 DUPLICATE = 1e-6
+#: a squared pose error below this is converged (Newton stops for that row)
+CONVERGED = 1e-28
 #: σ_min / σ_max of the Jacobian below this: a singular configuration
 SINGULAR = 1e-7
 
@@ -78,7 +80,7 @@ class AllSolutions:
 def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
     e = np.empty((F.shape[0], 6))
     e[:, :3] = targets[:, :3, 3] - F[:, :3, 3]
-    e[:, 3:] = so3_log(targets[:, :3, :3] @ np.swapaxes(F[:, :3, :3], 1, 2))
+    e[:, 3:] = so3_log(np.einsum("nij,nkj->nik", targets[:, :3, :3], F[:, :3, :3]))
     return e
 
 
@@ -100,28 +102,32 @@ def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns
         return Q
     lam = np.full(K, 1e-2 if damped else 1e-12)
 
-    def error(Qm):
-        e = _errors6(poe.fk(Qm, [link], tool=tool)[:, 0], targets)[:, rows]
+    def error(Qm, Tm=targets):
+        e = _errors6(poe.fk(Qm, [link], tool=tool)[:, 0], Tm)[:, rows]
         return e, np.sum(e * e, axis=1)
 
     e, cost = error(Q)
+    active = np.flatnonzero(cost > CONVERGED)
     for _ in range(steps):
-        J = poe.jacobian(Q, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
-        Jt = np.swapaxes(J, 1, 2)
-        A = Jt @ J + lam[:, None, None] * np.eye(n)
-        dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
+        if active.size == 0:
+            break
+        # a row leaves once converged, so its steps do not depend on the other rows of the batch
+        Qa, ea = Q[active], e[active]
+        J = poe.jacobian(Qa, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
+        # einsum, not a batched matmul: the same arithmetic for a row alone and in a batch
+        A = np.einsum("nri,nrj->nij", J, J) + lam[active, None, None] * np.eye(n)
+        dq = np.linalg.solve(A, np.einsum("nri,nr->ni", J, ea)[:, :, None])[:, :, 0]
         if damped:
             big = np.abs(dq).max(axis=1, initial=0.0)
             dq *= np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))[:, None]
-        trial = Q.copy()
+        trial = Qa.copy()
         trial[:, columns] += dq
-        e2, cost2 = error(trial)
-        better = cost2 < cost
-        Q[better] = trial[better]
-        e[better], cost[better] = e2[better], cost2[better]
-        lam = np.where(better, np.maximum(lam / 4.0, 1e-15), np.minimum(lam * 8.0, 1e6))
-        if np.all(cost < 1e-30):
-            break
+        e2, cost2 = error(trial, targets[active])
+        better = cost2 < cost[active]
+        took = active[better]
+        Q[took], e[took], cost[took] = trial[better], e2[better], cost2[better]
+        lam[active] = np.where(better, np.maximum(lam[active] / 4.0, 1e-15), np.minimum(lam[active] * 8.0, 1e6))
+        active = active[cost[active] > CONVERGED]
     return Q
 
 
@@ -154,7 +160,7 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | Non
     """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
     ideal = fam.ideal
     targets = inverse_transform(T_root) if fam.reversed else T_root
-    G = np.ascontiguousarray(targets @ inverse_transform(ideal.M))
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer
     N = G.shape[0]
     Q = np.zeros((N, ik_closed.MAX_CANDIDATES, 6))
     count = np.zeros(N, dtype=np.int64)
@@ -274,8 +280,10 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     Tt = T_root[owner]
     if len(Q):
         Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
-        if damped:  # then undamped steps: quadratic convergence onto the solutions
-            Q = newton(poe, link, Q, Tt, chain.columns, POLISH_STEPS, tool, position_only, False)
+        if damped:  # then undamped steps on the rows that came near a solution: quadratic convergence onto it
+            e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
+            near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
+            Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
     Q = _wrap_revolute(model, chain, Q)
     ok = np.zeros(len(Q), bool)
     if len(Q):
