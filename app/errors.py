@@ -33,6 +33,7 @@ from kinematics.errors import (
     JointValueError,
     KinematicsError,
     LimitError,
+    LockedJointError,
     ModelTooLargeError,
     NoDHFormError,
     PoEError,
@@ -92,6 +93,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (ConfigurationNormError, 422, "non-unit-joint-values", "Quaternion or planar (cos, sin) not of unit norm"),
     (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
+    (LockedJointError, 422, "invalid-locked-joint", "Invalid locked joint"),
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (PoseError, 422, "invalid-pose", "Invalid pose"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
@@ -155,6 +157,8 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
     if isinstance(exc, TimeBudgetError):  # the time budget: the setting and its limit in seconds
         return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
+    if isinstance(exc, LockedJointError):
+        return problem(status, title, detail, slug, model=model_id, field="locked", joint=exc.joint)
     if isinstance(exc, SymbolicTimeoutError):
         return problem(status, title, detail, slug, model=model_id, field="simplify", limit=exc.timeout)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))

@@ -5,6 +5,11 @@ A JSON body is an ``IKRequest``. With ``Content-Type: application/x-npy`` the bo
 parameters. ``Accept: application/x-npz`` answers an uncompressed ``.npz`` with ``q`` (N, dof),
 ``success`` (N,), ``position_error`` (N,), ``rotation_error`` (N,) and ``iterations`` (N,)
 (joint order in ``X-Joint-Names``).
+
+With ``solutions: "all"`` the answer lists every solution (``count``, ``solutions`` records; the
+``.npz`` holds ``q`` (N, K, dof) padded with NaN, ``count`` (N,), ``within_limits``, ``singular``,
+``position_error``, ``rotation_error`` (N, K)); ``.npy`` requests give ``locked`` as repeated
+``locked=joint:value`` query parameters.
 """
 
 from __future__ import annotations
@@ -58,6 +63,10 @@ async def read_ik_request(
     point: PointQuery = None,
     floating_base: FloatingBaseQuery = False,
     normalize: NormalizeQuery = False,
+    solutions: Annotated[Literal["one", "all"], Query(description=".npy bodies: one or all")] = "one",
+    method: Annotated[Literal["auto", "analytic", "numeric"], Query(description=".npy bodies: the method")] = "auto",
+    limits: Annotated[Literal["respect", "ignore"], Query(description=".npy bodies: with solutions all")] = "respect",
+    locked: Annotated[list[str] | None, Query(description=".npy bodies: joint:value, repeated")] = None,
 ) -> dict[str, Any]:
     """The request's options as :func:`kinematics.api.ik` keywords, whatever its encoding."""
     body = await read_body(request, settings.max_request_bytes, "request body")
@@ -66,7 +75,8 @@ async def read_ik_request(
         return {"target": decode_targets(body), "link": link, "mode": mode, "position_tolerance": position_tolerance,
                 "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
                 "random_seed": random_seed, "verify": verify, "point": parse_point(point),
-                "floating_base": floating_base, "normalize": normalize}
+                "floating_base": floating_base, "normalize": normalize, "solutions": solutions, "method": method,
+                "limits": limits, "locked": parse_locked(locked)}
     if kind not in ("application/json", ""):
         raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json or {NPY_MEDIA_TYPE}",
                            slug="unsupported-media-type")
@@ -106,11 +116,30 @@ async def inverse_kinematics(model_id: ModelId, options: Annotated[dict, Depends
     return await run_heavy(request, _solve, model_id, options, request, registry, settings)
 
 
+def parse_locked(values: list[str] | None) -> dict[str, float] | None:
+    """``locked=joint:value`` query parameters as a map (a malformed one is a 422 naming it)."""
+    if not values:
+        return None
+    out: dict[str, float] = {}
+    for item in values:
+        name, sep, value = item.rpartition(":")
+        try:
+            if not sep or not name:
+                raise ValueError
+            out[name] = float(value)
+        except ValueError:
+            raise ProblemError(422, f"locked: {item!r} is not joint:value", slug="validation-error",
+                               field="locked") from None
+    return out
+
+
 def _solve(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     budget = api.Budget(max_batch=settings.max_batch, max_verify=settings.max_verify,
                         max_ik_work=settings.max_ik_work)
     answer = api.ik(rec.model, budget=budget, **options)
+    if isinstance(answer, api.IKAllAnswer):
+        return _all_answer(rec.id, answer, request)
     sol = answer.solution
     record_ik(sol.success, sol.iterations)
     if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
@@ -133,4 +162,24 @@ def _solve(model_id: str, options: dict[str, Any], request: Request, registry, s
         "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
         "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
         "verification": verification,
+    })
+
+
+def _all_answer(model_id: str, answer: "api.IKAllAnswer", request: Request):
+    """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
+    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
+        names = names_header(answer.model.joint_names)
+        headers = {"X-Link": answer.link, "X-Family": answer.family, "X-Method": answer.method,
+                   **({"X-Joint-Names": names} if names is not None else
+                      {"X-Joint-Names-Omitted": "too long for a header; see GET /models/{id}"})}
+        return NpzResponse({"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
+                            "singular": answer.singular, "position_error": answer.position_error,
+                            "rotation_error": answer.rotation_error}, headers=headers)
+    per_target = [answer.solutions(n) for n in range(len(answer.count))]
+    return FastJSONResponse({
+        "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
+        "method": answer.method, "family": answer.family, "locked": answer.locked,
+        "count": answer.count.tolist() if answer.is_batch else int(answer.count[0]),
+        "solutions": per_target if answer.is_batch else per_target[0],
+        "verification": answer.verification,
     })

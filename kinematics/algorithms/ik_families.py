@@ -31,7 +31,7 @@ import numpy as np
 from ..engine import ik_closed
 from ..engine.compiled import PRISMATIC
 from ..engine.poe import PoEModel, compile_model
-from ..errors import KinematicsError, LimitError, did_you_mean
+from ..errors import KinematicsError, LockedJointError, did_you_mean
 from ..model.robot import RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
@@ -40,14 +40,6 @@ from ..tolerances import LIMIT_TOLERANCE
 EXACT_ANGLE, EXACT_DISTANCE = 1e-9, 1e-9
 #: a near family (solved by the ideal chain's closed form, then Newton on the real one)
 NEAR_ANGLE, NEAR_DISTANCE = 2e-2, 1e-2
-
-
-class LockedJointError(KinematicsError):
-    """A ``locked`` entry names no joint of the model, a joint off the chain, or a value outside the limits."""
-
-    def __init__(self, message: str, *, joint: str):
-        super().__init__(message)
-        self.joint = joint
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,7 +13,8 @@ import pytest
 from kinematics import api, compile_model, default_catalogue
 from kinematics.algorithms.ik import inverse_kinematics, pose_errors
 from kinematics.algorithms.ik_all import all_solutions
-from kinematics.algorithms.ik_families import LockedJointError, detect, reduce_chain
+from kinematics.algorithms.ik_families import detect, reduce_chain
+from kinematics.errors import LockedJointError
 from kinematics.io.dh_table import model_from_table, table_from_dict
 from kinematics.spatial.transforms import exp_screws
 from kinematics.verify.pinocchio import reference_for
