@@ -41,7 +41,6 @@ from kinematics.errors import (
     ReferenceUnavailableError,
     RepresentationSingularityError,
     SymbolicError,
-    SymbolicTimeoutError,
     TaskError,
     TimeBudgetError,
     UnknownLinkError,
@@ -85,7 +84,6 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (DHError, 422, "invalid-dh-table", "Invalid Denavit-Hartenberg table"),
     (PoEError, 422, "invalid-poe-model", "Invalid product-of-exponentials description"),
     (AxesError, 422, "invalid-axes-model", "Invalid zero-configuration axes description"),
-    (SymbolicTimeoutError, 422, "symbolic-timeout", "The closed forms took too long"),
     (SymbolicError, 422, "invalid-symbolic-request", "Closed forms cannot be derived"),
     (RepresentationSingularityError, 422, "representation-singularity", "Singular task representation"),
     (TaskError, 422, "invalid-task-representation", "Invalid task representation"),
@@ -155,12 +153,10 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     detail = str(exc)
     if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
-    if isinstance(exc, TimeBudgetError):  # the time budget: the setting and its limit in seconds
+    if isinstance(exc, TimeBudgetError):  # a time budget (closed forms' too): the setting and its limit in seconds
         return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
     if isinstance(exc, LockedJointError):
         return problem(status, title, detail, slug, model=model_id, field="locked", joint=exc.joint)
-    if isinstance(exc, SymbolicTimeoutError):
-        return problem(status, title, detail, slug, model=model_id, field="simplify", limit=exc.timeout)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))
 
 

@@ -123,6 +123,32 @@ def _document_security(app: FastAPI, schema: dict) -> None:
         schema.get("components", {}).pop("securitySchemes", None)
 
 
+#: request fields whose batch size the ``max_batch`` setting bounds: (schema, field)
+BATCH_FIELDS = (("FKRequest", "q"), ("JacobianRequest", "q"), ("VelocityRequest", "q"), ("VelocityRequest", "qdot"),
+                ("TaskRequest", "q"), ("IKRequest", "target"))
+
+
+def _document_limits(app: FastAPI, schema: dict) -> None:
+    """State the limits that come from settings in the schema, so that a schema-valid request is not
+    refused for its size: ``samples`` at most ``max_workspace_samples`` (``maximum``), and the batch
+    forms of q, qdot and IK targets at most ``max_batch`` items (``maxItems`` on the list-of-configurations
+    and list-of-poses branches; a single vector, map or pose is one)."""
+    settings = app.state.settings
+    components = schema.get("components", {}).get("schemas", {})
+    samples = components.get("WorkspaceRequest", {}).get("properties", {}).get("samples")
+    if samples is not None:
+        samples["maximum"] = settings.max_workspace_samples
+    for name, field in BATCH_FIELDS:
+        prop = components.get(name, {}).get("properties", {}).get(field)
+        for branch in (prop or {}).get("anyOf", []):
+            items = branch.get("items") if branch.get("type") == "array" else None
+            batch = isinstance(items, dict) and (
+                items.get("type") == "object" or "anyOf" in items  # maps, or poses of any form
+                or (field != "target" and items.get("type") == "array"))  # vectors (for targets: a 4x4 matrix)
+            if batch:
+                branch["maxItems"] = settings.max_batch
+
+
 def _custom_openapi(app: FastAPI):
     """OpenAPI with the schemas of request bodies the handlers read themselves (JSON or .npy)."""
 
@@ -136,6 +162,7 @@ def _custom_openapi(app: FastAPI):
         for name, s in defs.get("$defs", {}).items():
             components.setdefault(name, s)
         _document_security(app, schema)
+        _document_limits(app, schema)
         _document_problems(schema)
         app.openapi_schema = schema
         return schema

@@ -6,7 +6,8 @@ The package is layered, each layer importing only those below it (an import cont
 :mod:`~kinematics.model` (the immutable robot model, q) < :mod:`~kinematics.io` (URDF, DH
 tables, catalogue, files) and :mod:`~kinematics.engine` (compiled PoE kernels) <
 :mod:`~kinematics.algorithms` (FK, Jacobians, DH forms, ...) < :mod:`~kinematics.verify`
-(Pinocchio) < :mod:`~kinematics.api` (the use cases) < :mod:`~kinematics.cli`.
+(Pinocchio) < :mod:`~kinematics.usecases` (the use cases, each taking a :class:`Query`) <
+:mod:`~kinematics.api` (their historical address) < :mod:`~kinematics.cli`.
 
 Typical use::
 
@@ -16,9 +17,14 @@ Typical use::
     (1, 1, 4, 4)
     >>> kinematics.jacobian(ur5, [[0.0] * 6] * 3, link="tool0", reference="local").jacobians.shape
     (3, 6, 6)
+    >>> query = kinematics.Query(ur5, link="tool0", point=[0.0, 0.0, 0.1])
+    >>> kinematics.ik(query, kinematics.fk(query.replace(links=["tool0"]), [0.3] * 6).poses[0, 0]).solution.success
+    array([ True])
 """
 
-from .api import Budget, FKAnswer, JacobianAnswer, Verification, fk, jacobian, joint_batch, load_model, warm_up
+from .usecases import (Budget, FKAnswer, IKAnswer, JacobianAnswer, Query, TaskAnswer, Verification, VelocityAnswer,
+                       fk, ik, jacobian, joint_batch, load_model, symbolic, symbolic_dh, task, velocity, warm_up,
+                       workspace)
 from .engine.parallel import set_threads, thread_count, threads
 from .engine.poe import PoEModel, compile_model
 from .engine.single import fk_function, jacobian_function
@@ -45,7 +51,9 @@ from .spatial.reference import REFERENCES, Reference
 __version__ = "0.1.0"
 
 __all__ = [
-    "Budget", "FKAnswer", "JacobianAnswer", "Verification", "fk", "jacobian", "joint_batch", "load_model", "warm_up",
+    "Budget", "FKAnswer", "IKAnswer", "JacobianAnswer", "Query", "TaskAnswer", "Verification", "VelocityAnswer", "fk",
+    "ik", "jacobian", "joint_batch", "load_model", "symbolic", "symbolic_dh", "task", "velocity", "warm_up",
+    "workspace",
     "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
     "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",

@@ -113,11 +113,13 @@ class SymbolicError(KinematicsError):
     name, a chain without moving joints, an unsupported task representation."""
 
 
-class SymbolicTimeoutError(SymbolicError):
-    """The closed forms took longer than the time limit (``timeout``)."""
+class SymbolicTimeoutError(TimeBudgetError, SymbolicError):
+    """The closed forms took longer than their time limit, ``timeout`` seconds: a time budget like any
+    other (``limit``; ``setting`` names where the limit came from, the ``timeout`` argument unless the
+    caller says which setting it is)."""
 
-    def __init__(self, message: str, *, timeout: float):
-        super().__init__(message)
+    def __init__(self, message: str, *, timeout: float, setting: str = "timeout"):
+        super().__init__(message, setting=setting, limit=timeout)
         self.timeout = timeout
 
 

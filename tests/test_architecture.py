@@ -44,7 +44,8 @@ def test_import_contracts_are_kept():
     ("kinematics/io/xacro.py", "    import xacro", "MuJoCo"),  # xacro runs only in the sandboxed worker
     ("kinematics/io/urdf.py", "from . import catalogue", "cycles"),  # catalogue imports urdf
     ("kinematics/client.py", "    from kinematics import api", "Python client"),  # the client speaks HTTP only
-    ("kinematics/api.py", "    from . import distributed", "layered"),  # distributed sits above the use cases
+    ("kinematics/usecases/fk.py", "    from .. import distributed", "layered"),  # distributed sits above the use cases
+    ("kinematics/usecases/fk.py", "    from .. import api", "layered"),  # the facade sits above the use cases
 ])
 def test_a_violation_breaks_its_contract(tmp_path, module, line, contract):
     """Each contract catches the violation it is there for (on a copy of the sources)."""
@@ -61,3 +62,18 @@ def test_a_violation_breaks_its_contract(tmp_path, module, line, contract):
     assert r.returncode != 0, r.stdout
     broken = [text for text in r.stdout.splitlines() if text.endswith("BROKEN") or "BROKEN (" in text]
     assert any(contract in text for text in broken), r.stdout
+
+
+def test_routes_share_code_through_the_adapter_not_each_other():
+    """A route module imports no private name (``_x``) of another route module: what routes share
+    lives in ``app/adapter.py``."""
+    import ast
+
+    offenders = []
+    for path in sorted((REPO / "app" / "routes").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+                offenders += [f"{path.name}: from .{node.module} import {a.name}" for a in node.names
+                              if a.name.startswith("_")]
+    assert not offenders, offenders
+

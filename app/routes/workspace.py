@@ -12,39 +12,24 @@ what the viewer draws). Samples are bounded by ``max_workspace_samples`` (413
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 from fastapi import APIRouter, Depends, Request
 
-from kinematics import api
+from kinematics import usecases
 
-from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, wants_npy
-from ..errors import ProblemError
-from ..heavy import run_heavy
+from ..adapter import budget, error_responses, execute, npy_response_doc, read_request, request_body_doc
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpyResponse, NpzResponse
-from ..schemas import WORKSPACE_EXAMPLES, Problem, WorkspaceRequest, WorkspaceResponse
+from ..schemas import WORKSPACE_EXAMPLES, WorkspaceRequest, WorkspaceResponse
 from ..settings import Settings
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
-_ERRORS = {
-    400: {"model": Problem, "description": "malformed body"},
-    404: {"model": Problem, "description": "unknown model or link"},
-    413: {"model": Problem, "description": "samples over max_workspace_samples, or the cloud over max_result_values"},
-    415: {"model": Problem, "description": "unsupported content type"},
-    422: {"model": Problem, "description": "invalid options (point, tool, voxel, a prismatic joint without limits)"},
-    503: {"model": Problem, "description": "over the time budget KIN_REQUEST_TIMEOUT (time-budget-exceeded)"},
-}
 
-
-async def read_workspace_request(request: Request, settings: SettingsDep) -> dict[str, Any]:
-    body = await read_body(request, settings.max_request_bytes, "request body")
-    kind = media_type(request)
-    if kind not in ("application/json", ""):
-        raise ProblemError(415, f"Content-Type {kind!r} is not supported: send application/json",
-                           slug="unsupported-media-type")
-    return WorkspaceRequest.model_validate_json(body or b"{}").model_dump()
+async def read_workspace_request(request: Request, settings: SettingsDep) -> WorkspaceRequest:
+    return await read_request(request, settings, WorkspaceRequest, batch=None)
 
 
 def _wants_npz(request: Request) -> bool:
@@ -54,19 +39,16 @@ def _wants_npz(request: Request) -> bool:
 @router.post(
     "/models/{model_id}/workspace", response_model=WorkspaceResponse,
     responses={200: {"content": {
-        NPZ_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary", "description":
-                         "np.savez: points (N, 3), manipulability (N,), voxel_centers (M, 3), voxel_index (M, 3), "
-                         "voxel_manipulability (M,), bounding_box (2, 3), reach, volume, area, convergence (k, 2), "
-                         "voxel, cell (3,), axes (3, 3), origin (3,)"}},
-        NPY_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary",
-                                    "description": "(N, 4) float64 rows x, y, z, manipulability"}}}},
-               **_ERRORS},
-    openapi_extra={"requestBody": {"required": False, "content": {
-        "application/json": {"schema": {"$ref": "#/components/schemas/WorkspaceRequest"}, "examples": WORKSPACE_EXAMPLES},
-    }}},
+        **npy_response_doc("np.savez: points (N, 3), manipulability (N,), voxel_centers (M, 3), voxel_index (M, 3), "
+                           "voxel_manipulability (M,), bounding_box (2, 3), reach, volume, area, convergence (k, 2), "
+                           "voxel, cell (3,), axes (3, 3), origin (3,)", NPZ_MEDIA_TYPE)["content"],
+        **npy_response_doc("(N, 4) float64 rows x, y, z, manipulability", NPY_MEDIA_TYPE)["content"]}},
+               **error_responses({413: "samples over max_workspace_samples, or the cloud over max_result_values",
+                                  422: "invalid options (point, tool, voxel, a prismatic joint without limits)"})},
+    openapi_extra=request_body_doc("WorkspaceRequest", WORKSPACE_EXAMPLES, required=False),
 )
-async def workspace(model_id: ModelId, options: Annotated[dict, Depends(read_workspace_request)], request: Request,
-                    registry: RegistryDep, settings: SettingsDep):
+async def workspace(model_id: ModelId, req: Annotated[WorkspaceRequest, Depends(read_workspace_request)],
+                    request: Request, registry: RegistryDep, settings: SettingsDep):
     """The reachable set of a link (or of a `point` / `tool` frame on it), sampled.
 
     `samples` configurations are drawn uniformly within the joint limits (`random_seed`), run
@@ -76,18 +58,17 @@ async def workspace(model_id: ModelId, options: Annotated[dict, Depends(read_wor
     `manipulability` (product of the singular values of the Jacobian). The cloud and the dexterity
     map (best manipulability per cell) come as `.npz` with `Accept: application/x-npz`.
     """
-    return await run_heavy(request, _workspace, model_id, options, request, registry, settings)
+    return await execute(request, _workspace, model_id, req, request, registry, settings)
 
 
-def _workspace(model_id: str, options: dict[str, Any], request: Request, registry, settings: Settings):
+def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
-    budget = api.Budget(max_result_values=settings.max_result_values,
-                        max_workspace_samples=settings.max_workspace_samples)
-    cloud = _wants_npz(request) or wants_npy(request)
-    if cloud:
-        budget.check_workspace_samples(options["samples"])
-        budget.check_result(options["samples"] * 4, f"a cloud of {options['samples']} samples x 4")
-    ws = api.workspace(rec.model, budget=budget, **options)
+    query = req.to_query(rec.model, budget(settings))
+    if _wants_npz(request) or wants_npy(request):  # the cloud: bounded before it is sampled
+        query.budget.check_workspace_samples(req.samples)
+        query.budget.check_result(req.samples * 4, f"a cloud of {req.samples} samples x 4")
+    ws = usecases.workspace(query, samples=req.samples, voxel=req.voxel, measure=req.measure,
+                            random_seed=req.random_seed)
     planar = ws.dimension < 3
     if wants_npy(request) and not _wants_npz(request):
         return NpyResponse(np.column_stack([ws.points, ws.manipulability]),

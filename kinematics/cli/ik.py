@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from .. import api
+from ..usecases import Query
 from ..algorithms.ik import (
     DEFAULT_MAX_ITERATIONS,
     DEFAULT_POSITION_TOLERANCE,
@@ -216,17 +217,18 @@ def _bad_option(args) -> str | None:
 def _solve(args, model, link: str, seed) -> int:
     source, in_fmt, dest, out_fmt = _endpoints(args)
     summary = _Summary(args)
+    query = Query(model, link=link, verify=args.verify)  # the request shape, built once for every chunk
     t0 = time.perf_counter()
     with open_input(args, model, source, in_fmt, targets=True) as targets:
         bar = progress(total=targets.total, desc="ik", unit="target")
         try:
             with open_output(args, dest, out_fmt, "ik", model.joint_names, model, targets) as writer:
                 for start, T in targets:
-                    answer = api.ik(model, T, link=link, seed=seed, mode=args.mode,
+                    answer = api.ik(query, T, seed=seed, mode=args.mode,
                                     position_tolerance=args.position_tolerance,
                                     rotation_tolerance=args.rotation_tolerance,
                                     max_iterations=args.max_iterations, restarts=args.restarts,
-                                    random_seed=args.random_seed, verify=args.verify)
+                                    random_seed=args.random_seed)
                     writer.write(answer.solution, chunk_times(targets, start, T.shape[0]))
                     summary.add(start, answer)
                     bar.update(T.shape[0])

@@ -16,6 +16,7 @@ import time
 
 
 from .. import api
+from ..usecases import Query
 from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
 from ..io.trajectory import (
@@ -392,8 +393,10 @@ def run_fk(args) -> int:
             return _fail("fk", "MCAP output is the TF tree of every link: drop --links (or give --links all)", EXIT_USAGE)
         links = list(model.links)
 
+    query = Query(model, links=links)
+
     def compute(Q):
-        return api.fk(model, Q, links=links)
+        return api.fk(query, Q)
 
     def verify(sampler) -> int:
         from ..verify import pinocchio
@@ -418,8 +421,10 @@ def run_jacobian(args) -> int:
     if args.dask:
         return _run_dask(args, "jacobian", model, link=link, reference=args.reference)
 
+    query = Query(model, link=link)
+
     def compute(Q):
-        return api.jacobian(model, Q, link=link, reference=args.reference)
+        return api.jacobian(query, Q, reference=args.reference)
 
     def verify(sampler) -> int:
         from ..verify import pinocchio

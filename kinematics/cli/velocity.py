@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from .. import api
+from ..usecases import Query
 from ..io.poses import tool_offset
 from ..io.trajectory import ResultWriter, RowSampler, open_state_rows
 from ..spatial.reference import REFERENCES, Reference
@@ -89,13 +90,14 @@ def _run(args, model, links, point) -> int:
     sampler = RowSampler(args.verify or 0, args.seed)
     reference = Reference(args.reference)
     outside = 0
+    query = Query(model, links=links, point=point)  # the request shape, built once for every chunk
     t0 = time.perf_counter()
     with open_state_rows(source, model, in_fmt, args.chunk) as rows:
         bar = progress(total=rows.total, desc="velocity", unit="row", unit_scale=True)
         try:
             with ResultWriter(dest, out_fmt, "velocity", links) as writer:
                 for start, (Q, Qd) in rows:
-                    answer = api.velocity(model, Q, Qd, links=links, point=point)
+                    answer = api.velocity(query, Q, Qd)
                     result = answer.twists[reference]
                     writer.write(result)
                     if args.verify:

@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from .. import api
+from ..usecases import Query
 from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, SAMPLES_PER_CELL
 from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
 from .pipeline import ModelLoadError, _fail, _model_options, load_model
@@ -86,11 +87,12 @@ def run_workspace(args) -> int:
         if len(point) != 3:
             return _fail("workspace", f"--point: {args.point!r}; give three comma-separated numbers x,y,z", EXIT_USAGE)
     link = args.link or (model.leaf_links[0] if model.leaf_links else model.root)
-    api.resolve_links(model, [link])  # unknown link: exit 2 before sampling
+    query = Query(model, link=link, point=point)
+    query.frame_link()  # unknown link: exit 2 before sampling
     t0 = time.perf_counter()
     bar = progress(total=args.samples, desc="workspace", unit="sample", unit_scale=True)
     try:
-        ws = api.workspace(model, link, samples=args.samples, point=point, voxel=args.voxel, measure=args.measure,
+        ws = api.workspace(query, samples=args.samples, voxel=args.voxel, measure=args.measure,
                            random_seed=args.seed, progress=bar.update)
     finally:
         bar.close()

@@ -9,62 +9,14 @@ batch, either one pose for every configuration or a list with one pose per confi
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..errors import BasePoseError, PoseError
-from ..spatial.rotations import quaternion_to_matrix, rpy_to_matrix
-from ..spatial.transforms import is_rigid_transform, make_transform
+from ..model.joint_values import floating_joint_values  # noqa: F401 - read with q now; kept importable here
+from ..spatial.pose_data import is_pose_list as _is_pose_list, read_pose as _one_pose, read_vector as _vector
 from ..tolerances import MAX_ABS_COORDINATE, RIGID_TOLERANCE
-
-
-def _vector(value, n: int, where: str, error: type[PoseError] = BasePoseError) -> np.ndarray:
-    if not isinstance(value, Sequence) or isinstance(value, (str, bytes)) or len(value) != n:
-        raise error(f"{where}: expected {n} numbers, got {value!r}")
-    try:
-        v = np.array([float(x) for x in value])
-    except (TypeError, ValueError):
-        raise error(f"{where}: {value!r} is not a list of numbers") from None
-    if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_ABS_COORDINATE):
-        raise error(f"{where}: {value!r} has a non-finite value or one beyond +-{MAX_ABS_COORDINATE:g}")
-    return v
-
-
-def _one_pose(value, where: str, error: type[PoseError] = BasePoseError) -> np.ndarray:
-    if isinstance(value, Mapping):
-        keys = set(value)
-        if keys == {"xyz", "rpy"}:
-            return make_transform(rpy_to_matrix(_vector(value["rpy"], 3, f"{where}.rpy", error)),
-                                  _vector(value["xyz"], 3, f"{where}.xyz", error))
-        if keys == {"position", "quaternion"}:
-            quat = value["quaternion"]
-            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
-                raise error(f"{where}.quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
-            w, x, y, z = _vector([quat["w"], quat["x"], quat["y"], quat["z"]], 4, f"{where}.quaternion", error)
-            norm = np.sqrt(w * w + x * x + y * y + z * z)
-            if abs(norm - 1.0) > RIGID_TOLERANCE:
-                raise error(f"{where}.quaternion: not a unit quaternion (norm {norm:.9g})")
-            R = quaternion_to_matrix(*(np.array([w, x, y, z]) / norm))
-            return make_transform(R, _vector(value["position"], 3, f"{where}.position", error))
-        raise error(
-            f"{where}: expected {{\"xyz\", \"rpy\"}}, {{\"position\", \"quaternion\"}} or a 4x4 matrix, "
-            f"got the keys {sorted(map(str, keys))}"
-        )
-    if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 4:
-        T = np.array([_vector(row, 4, f"{where}[{i}]", error) for i, row in enumerate(value)])
-        if not is_rigid_transform(T, RIGID_TOLERANCE):
-            raise error(f"{where}: not a rigid transform (rotation orthonormal with det 1, last row 0 0 0 1)")
-        return T
-    raise error(f"{where}: expected a pose, got {value!r}")
-
-
-def _is_pose_list(value) -> bool:
-    """A list of poses (as opposed to one 4x4 matrix, whose items are rows of numbers)."""
-    return (isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) > 0
-            and all(isinstance(v, Mapping) or (isinstance(v, Sequence) and not isinstance(v, (str, bytes))
-                                               and len(v) > 0 and not isinstance(v[0], (int, float)))
-                    for v in value))
 
 
 def base_poses(value, n: int) -> np.ndarray | None:
@@ -148,48 +100,3 @@ def tool_offset(point=None, tool=None) -> np.ndarray | None:
     if is_batch:
         raise PoseError("tool: give one pose (T_link_tool), not a list")
     return T[0]
-
-
-def floating_joint_values(values: Mapping, floating: Sequence[str], where: str = "") -> dict:
-    """A ``{joint: value}`` map whose floating joints (names in ``floating``) may be given as a pose:
-    ``{"position", "quaternion": {w, x, y, z}}`` (taken as given: its norm is checked, naming the
-    joint, with the rest of q), ``{"xyz", "rpy"}`` or a 4x4 matrix (rigid) -> the same map with
-    those joints as their 7 values ``x, y, z, qx, qy, qz, qw`` (Pinocchio's layout). Other
-    values are left as they are.
-
-    >>> floating_joint_values({"root": {"xyz": [1, 2, 3], "rpy": [0, 0, 0]}, "elbow": 0.5}, ["root"])
-    {'root': [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0], 'elbow': 0.5}
-    """
-    from ..errors import JointValueError
-    from ..spatial.rotations import matrix_to_quaternion
-
-    out = dict(values)
-    for name in floating:
-        v = values.get(name)
-        is_matrix = (isinstance(v, Sequence) and not isinstance(v, (str, bytes)) and len(v) == 4
-                     and all(isinstance(r, Sequence) and not isinstance(r, (str, bytes)) for r in v))
-        if not (isinstance(v, Mapping) or is_matrix):
-            continue
-        at = f"{where}joint {name!r}"
-        if isinstance(v, Mapping) and set(v) == {"position", "quaternion"}:
-            quat = v["quaternion"]
-            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
-                raise JointValueError(f"{at}: quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
-            p = _vector(v["position"], 3, f"{at}: position", PoseError)
-            out[name] = [*map(float, p), *(_scalar_of(quat[k], at) for k in ("x", "y", "z", "w"))]
-            continue
-        try:
-            T = _one_pose(v, at, PoseError)
-        except PoseError as exc:
-            raise JointValueError(str(exc)) from None
-        w, x, y, z = matrix_to_quaternion(T[:3, :3])
-        out[name] = [*map(float, T[:3, 3]), float(x), float(y), float(z), float(w)]
-    return out
-
-
-def _scalar_of(v, where: str) -> float:
-    from ..errors import JointValueError
-
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise JointValueError(f"{where}: quaternion entry {v!r} is not a number")
-    return float(v)

@@ -2,11 +2,15 @@
 
 q may be a vector in ``joint_names`` order, a ``{joint_name: value}`` map, or a list of
 either (a batch). Errors name what is wrong: the expected and given lengths, the missing
-or unknown joint names, the configuration and joint holding a NaN.
+or unknown joint names, the configuration and joint holding a NaN. This module is the one
+reader of joint values: every use case hands q down to :func:`read_joint_values` (or
+:func:`as_batch`) and gets the ``(N, nq)`` array the engine computes with.
 
 A floating joint takes 7 entries ``x, y, z, qx, qy, qz, qw`` and a planar joint 4 entries
 ``x, y, cos θ, sin θ`` (Pinocchio's layout, :attr:`RobotModel.layout`); in a name map their
-value is a list of 7 (4) numbers. The quaternion and the ``(cos, sin)`` pair must be of unit
+value is a list of 7 (4) numbers, and a floating joint's may also be a pose object
+(``{"position", "quaternion"}``, ``{"xyz", "rpy"}`` or a 4x4 matrix, read by
+:func:`floating_joint_values`). The quaternion and the ``(cos, sin)`` pair must be of unit
 norm within ``UNIT_NORM_TOLERANCE`` (else :class:`~kinematics.errors.ConfigurationNormError`
 naming the joint), or are scaled to it when ``normalize`` is asked; accepted values are always
 scaled to exactly unit norm, so every pose computed from them is rigid.
@@ -18,9 +22,91 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ConfigurationNormError, JointValueError, LimitError, did_you_mean
+from ..errors import ConfigurationNormError, JointValueError, LimitError, PoseError, did_you_mean
+from ..spatial.pose_data import read_pose, read_vector
+from ..spatial.rotations import matrix_to_quaternion
 from ..tolerances import LIMIT_TOLERANCE, MAX_ABS_JOINT_VALUE, UNIT_NORM_TOLERANCE
 from .robot import RobotModel
+
+
+def floating_joint_values(values: Mapping, floating: Sequence[str], where: str = "") -> dict:
+    """A ``{joint: value}`` map whose floating joints (names in ``floating``) may be given as a pose:
+    ``{"position", "quaternion": {w, x, y, z}}`` (taken as given: its norm is checked, naming the
+    joint, with the rest of q), ``{"xyz", "rpy"}`` or a 4x4 matrix (rigid) -> the same map with
+    those joints as their 7 values ``x, y, z, qx, qy, qz, qw`` (Pinocchio's layout). Other
+    values are left as they are.
+
+    >>> floating_joint_values({"root": {"xyz": [1, 2, 3], "rpy": [0, 0, 0]}, "elbow": 0.5}, ["root"])
+    {'root': [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0], 'elbow': 0.5}
+    """
+    out = dict(values)
+    for name in floating:
+        v = values.get(name)
+        is_matrix = (isinstance(v, Sequence) and not isinstance(v, (str, bytes)) and len(v) == 4
+                     and all(isinstance(r, Sequence) and not isinstance(r, (str, bytes)) for r in v))
+        if not (isinstance(v, Mapping) or is_matrix):
+            continue
+        at = f"{where}joint {name!r}"
+        if isinstance(v, Mapping) and set(v) == {"position", "quaternion"}:
+            quat = v["quaternion"]
+            if not isinstance(quat, Mapping) or set(quat) != {"w", "x", "y", "z"}:
+                raise JointValueError(f"{at}: quaternion: expected {{\"w\", \"x\", \"y\", \"z\"}}, got {quat!r}")
+            p = read_vector(v["position"], 3, f"{at}: position", PoseError)
+            out[name] = [*map(float, p), *(_quaternion_entry(quat[k], at) for k in ("x", "y", "z", "w"))]
+            continue
+        try:
+            T = read_pose(v, at, PoseError)
+        except PoseError as exc:
+            raise JointValueError(str(exc)) from None
+        w, x, y, z = matrix_to_quaternion(T[:3, :3])
+        out[name] = [*map(float, T[:3, 3]), float(x), float(y), float(z), float(w)]
+    return out
+
+
+def _quaternion_entry(v, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise JointValueError(f"{where}: quaternion entry {v!r} is not a number")
+    return float(v)
+
+
+def _pose_values(model: RobotModel, q):
+    """q with every floating joint given as a pose object in a name map replaced by its 7 values
+    (other forms unchanged)."""
+    if not model.multi_dof:
+        return q
+    floating = [s.name for s in model.layout if s.type == "floating"]
+    if not floating:
+        return q
+    if isinstance(q, Mapping):
+        return floating_joint_values(q, floating)
+    if isinstance(q, list) and q and any(isinstance(x, Mapping) for x in q):
+        return [floating_joint_values(x, floating, f"configuration {i}: ") if isinstance(x, Mapping) else x
+                for i, x in enumerate(q)]
+    return q
+
+
+def read_joint_values(model: RobotModel, q, normalize: bool = False) -> tuple[np.ndarray, bool]:
+    """``(Q (N, nq), is_batch)`` of joint values in any form a request gives them: :func:`as_batch`,
+    with a list of equal-length number lists read as one array at once (the common batch, so a
+    large batch is not validated number by number; ragged lists and name maps go through
+    :func:`as_batch`, which names what is wrong). An empty batch is refused.
+
+    >>> from kinematics.io import default_catalogue
+    >>> Q, is_batch = read_joint_values(default_catalogue().get("ur5"), [[0.0] * 6] * 3)
+    >>> Q.shape, is_batch
+    ((3, 6), True)
+    """
+    if isinstance(q, list) and q and isinstance(q[0], list):
+        try:
+            arr = np.array(q, dtype=float)
+        except (TypeError, ValueError):  # ragged or not numbers: let as_batch name the configuration
+            arr = None
+        if arr is not None and arr.ndim == 2:
+            q = arr
+    Q, is_batch = as_batch(model, q, normalize)
+    if Q.shape[0] == 0:
+        raise JointValueError("q has no configuration")
+    return Q, is_batch
 
 
 def _from_map(model: RobotModel, values: Mapping, where: str) -> np.ndarray:
@@ -99,8 +185,10 @@ def as_batch(model: RobotModel, q, normalize: bool = False) -> tuple[np.ndarray,
 
     A flat vector or a name map is one configuration (``is_batch`` False); a list of them,
     or a 2-D array, is a batch. Quaternions and planar ``(cos, sin)`` pairs are checked and
-    scaled to unit norm (:func:`unit_parts`; ``normalize``: scale any non-zero one).
+    scaled to unit norm (:func:`unit_parts`; ``normalize``: scale any non-zero one). A floating
+    joint's value in a name map may be a pose object (:func:`floating_joint_values`).
     """
+    q = _pose_values(model, q)
     if isinstance(q, np.ndarray):
         if q.dtype.kind not in "fiu":
             raise JointValueError(f"joint values must be numbers, got an array of dtype {q.dtype}")

@@ -11,10 +11,14 @@ says, not on the shape of the request:
   joints; a chain must exist (``no-dh-form``, ``invalid-symbolic-request``), ...;
 * a URDF / xacro / MJCF / DH / PoE / axes body must describe a robot (``invalid-urdf``,
   ``invalid-dh-table``, ...), which JSON Schema cannot check of an XML string or a matrix;
-* budgets (``batch-too-large``, ``result-too-large``, ...) bound products of sizes (targets x
-  restarts x iterations, configurations x links x 16) against the server's settings.
+* budgets (``result-too-large``, ``ik-work-too-large``, ``verify-too-large``) bound products of
+  sizes (targets x restarts x iterations, configurations x links x 16) or one field given another
+  against the server's settings; a time budget (503 ``time-budget-exceeded``: a closed form over
+  ``KIN_SYMBOLIC_TIMEOUT``) depends on the machine. The budgets that bound one field alone
+  (``samples`` and ``max_workspace_samples``, batches and ``max_batch``) are in the document
+  (``maximum``, ``maxItems``), so their refusals are not excused here.
 
-Those answers are 413/422 problems whose ``type`` is one of the library's problem types
+Those answers are 413/422/503 problems whose ``type`` is one of the library's problem types
 (:data:`app.errors.KINEMATICS_ERRORS`, the budgets). Only they are accepted here; every other
 refusal of a schema-valid request is still a failure -- in particular the app's own
 ``validation-error`` (which would mean the document and the server disagree about the shape
@@ -35,18 +39,18 @@ from schemathesis.specs.openapi.checks import ensure_resource_availability, posi
 
 from app.errors import KINEMATICS_ERRORS, PROBLEM_TYPE_PREFIX
 
-BUDGETS = ("batch", "verify", "result", "ik-work", "workspace-samples")
+BUDGETS = ("verify", "result", "ik-work")
 #: problem types that depend on the model or on the content of a description (see the docstring)
 SEMANTIC_TYPES = frozenset(
     {PROBLEM_TYPE_PREFIX + slug for _, status, slug, _ in KINEMATICS_ERRORS if status == 422}
     | {PROBLEM_TYPE_PREFIX + f"{budget}-too-large" for budget in BUDGETS}
     | {PROBLEM_TYPE_PREFIX + "model-too-large", PROBLEM_TYPE_PREFIX + "expansion-too-large",
-       PROBLEM_TYPE_PREFIX + "archive-too-large"}
+       PROBLEM_TYPE_PREFIX + "archive-too-large", PROBLEM_TYPE_PREFIX + "time-budget-exceeded"}
 )
 
 
 def _problem_type(response) -> str | None:
-    if response.status_code not in (413, 422):
+    if response.status_code not in (413, 422, 503):
         return None
     try:
         body = response.json()

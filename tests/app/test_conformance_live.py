@@ -73,7 +73,7 @@ def run_schemathesis(url: str, report_dir, headers: dict[str, str] | None = None
 def test_schemathesis_all_checks_against_a_live_server(tmp_path, keyed):
     data = tmp_path / "data"
     data.mkdir()
-    env = {"KIN_SYMBOLIC_TIMEOUT": "5"}  # closed forms give up sooner (422 symbolic-timeout, documented)
+    env = {"KIN_SYMBOLIC_TIMEOUT": "5"}  # closed forms give up sooner (503 time-budget-exceeded, documented)
     if keyed:
         env["KIN_API_KEY"] = API_KEY
     with LiveServer(data, tmp_path / "uvicorn.log", env=env) as live:

@@ -94,16 +94,22 @@ def test_symbolic_errors(api_client, path, payload, status, slug, field):
         assert r.json()["field"] == field
 
 
-def test_time_limit_answers_a_problem_suggesting_simplify_false(make_client):
+def test_time_limit_answers_the_time_budget_problem_naming_the_setting(make_client):
+    """A derivation stopped by its time limit answers as every time budget does: 503
+    time-budget-exceeded naming the setting and its limit (and suggesting simplify: false)."""
     client = make_client(symbolic_timeout=0.05)
     r = client.post("/models/panda/symbolic", json={"tip": "panda_hand_tcp", "what": ["transforms", "jacobian"]})
-    assert r.status_code == 422, r.text
+    assert r.status_code == 503, r.text
     body = r.json()
-    assert body["type"] == "urn:kinematics:problem:symbolic-timeout"
-    assert "simplify: false" in body["detail"] and body["limit"] == 0.05 and body["field"] == "simplify"
-    # a request may ask for less time than the service allows, not more
-    r = client.post("/models/planar_2r/symbolic", json={"timeout": 1000})
-    assert r.status_code in (200, 422)
+    assert body["type"] == "urn:kinematics:problem:time-budget-exceeded"
+    assert "simplify: false" in body["detail"]
+    assert body["setting"] == "KIN_SYMBOLIC_TIMEOUT" and body["limit"] == 0.05
+    # a request may ask for less time than the service allows (then its field is named), not more
+    r = client.post("/models/panda/symbolic", json={"tip": "panda_hand_tcp", "what": ["transforms", "jacobian"],
+                                                    "timeout": 0.01})
+    assert r.status_code == 503 and r.json()["setting"] == "timeout" and r.json()["limit"] == 0.01, r.text
+    r = client.post("/models/planar_2r/symbolic", json={"timeout": 1000, "simplify": False})
+    assert r.status_code in (200, 503)
 
 
 def test_task_endpoint(api_client):

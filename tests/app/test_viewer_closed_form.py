@@ -86,7 +86,7 @@ def test_closed_form_panel_on_ur5_and_a_clear_message_on_a_problem(server, brows
 
 @needs_browser
 def test_closed_form_panel_reports_the_time_limit(server, browser):
-    """Over the simplification budget: 422 symbolic-timeout, said with its hint."""
+    """Over the derivation's time limit: 503 time-budget-exceeded, said with its hint."""
     _open(browser, f"{server}/viewer/panda")
     _closed_tab(browser)
     browser.execute_script("""
@@ -98,9 +98,9 @@ def test_closed_form_panel_reports_the_time_limit(server, browser):
           return orig(url, init);
         };""")
     cf = _derive(browser, tip="panda_hand_tcp", jacobian=True)
-    assert not cf["ok"] and cf["httpStatus"] == 422, cf
+    assert not cf["ok"] and cf["httpStatus"] == 503, cf
     text = browser.find_element(By.ID, "cf-status").text
-    assert "symbolic-timeout" in text and "untick simplify" in text
+    assert "time-budget-exceeded" in text and "untick simplify" in text
 
 
 @needs_browser

@@ -1331,7 +1331,7 @@ function renderClosedForm(container, body, { factors = false, jacobian = false }
 function closedFormProblem(err) {
   const slug = err.type && err.type.startsWith(PROBLEM_PREFIX) ? err.type.slice(PROBLEM_PREFIX.length) : null;
   const hints = {
-    "symbolic-timeout": "The derivation ran over the service's time limit: untick simplify, or pick a tip nearer the root.",
+    "time-budget-exceeded": "The derivation ran over the service's time limit: untick simplify, or pick a tip nearer the root.",
     "invalid-symbolic-request": "The service cannot derive this chain's closed form as asked.",
     "invalid-dh-table": "The table cannot be read: check the cells named.",
   };

@@ -7,7 +7,8 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .schemas import BasePose, IKTolerance, JointValues, Number, Point, Vector
+from .common import BasePose, JointValues, Number, QueryRequest, Vector
+from .ik import IKTolerance
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
 
@@ -52,8 +53,7 @@ class PathStep(BaseModel):
     rotation: Number = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
 
 
-class IKPathRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class IKPathRequest(QueryRequest):
     link: str | None = Field(default=None, description="the link to move (default: the first leaf link)")
     waypoints: list[BasePose] = Field(min_length=2, description="two or more poses, T_world_link")
     seed: Union[JointValues, None] = Field(default=None, description="the start configuration (default: the solution "
@@ -62,9 +62,6 @@ class IKPathRequest(BaseModel):
     max_joint_step: Number = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
-    base: Union[BasePose, None] = Field(default=None, description="T_world_root")
-    point: Union[Point, None] = Field(default=None, description="a point on the link (link frame)")
-    tool: Union[BasePose, None] = Field(default=None, description="T_link_tool")
     avoid_collisions: bool = Field(default=False, description="not available yet: must be false")
 
 
@@ -86,3 +83,15 @@ class IKPathResponse(BaseModel):
     complete: bool
     stopped: PathStop | None
     max_joint_step: float = Field(description="the largest change of any joint between consecutive rows")
+
+
+IK_PATH_EXAMPLES = {
+    "straight_line": {"summary": "ur5: tool0 5 cm along x from a start configuration",
+                      "value": {"link": "tool0", "seed": [0.3, -1.0, 1.2, -0.5, 0.8, 0.2],
+                                "waypoints": [{"xyz": [0.618, 0.365, 0.296], "rpy": [1.78, 0.012, 2.66]},
+                                              {"xyz": [0.668, 0.365, 0.296], "rpy": [1.78, 0.012, 2.66]}],
+                                "step": {"position": 0.005, "rotation": 0.05}, "max_joint_step": 0.2}},
+}
+
+__all__ = ["IKSolutionRecord", "IKAllResponse", "IKFamilyResponse", "PathStep", "IKPathRequest", "PathStop",
+           "IKPathResponse", "IK_PATH_EXAMPLES"]

@@ -1,0 +1,79 @@
+"""Wire schemas of inverse kinematics (``POST /models/{id}/ik``)."""
+
+from __future__ import annotations
+
+from typing import Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .common import BasePose, Integer, JointValues, Number, QueryRequest, Vector
+
+_POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
+              '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
+
+
+class IKTolerance(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    position: Number = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
+    rotation: Number = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
+
+
+
+class IKRequest(QueryRequest):
+    link: str | None = Field(default=None, description="the link to place (default: the first leaf link)")
+    target: Union[BasePose, list[BasePose]] = Field(description=_POSE_DESC + "; or a list of those (a batch)")
+    seed: Union[JointValues, None] = Field(
+        default=None, description="starting joint values: one q (vector or name map) for every target, or one per "
+                                  "target; default the middle of the limits")
+    mode: Literal["pose", "position"] = Field(
+        default="pose", description="pose: position and orientation; position: the position only (orientation free)")
+    tolerance: IKTolerance = Field(default_factory=IKTolerance)
+    max_iterations: Integer = Field(default=100, ge=1, le=10_000, description="steps per attempt")
+    restarts: Integer = Field(default=50, ge=0, le=10_000,
+                          description="attempts from random configurations within the limits after the first")
+    random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
+    solutions: Literal["one", "all"] = Field(
+        default="one", description="one: a single answer (numerical, or the closed-form solution nearest the seed "
+                                   "with method analytic or locked joints); all: every solution")
+    method: Literal["auto", "analytic", "numeric"] = Field(
+        default="auto", description="auto: the chain's closed form where it has one, else the search (all) or damped "
+                                    "least squares (one); analytic: the closed form or a 422; numeric: no closed form")
+    locked: Union[dict[str, Number], None] = Field(
+        default=None, description="joints held at these values, {joint: value} (a 7-dof arm with one locked is a "
+                                  "6-joint chain)")
+    limits: Literal["respect", "ignore"] = Field(
+        default="respect", description="with solutions all: respect lists every solution inside the limits, each "
+                                       "q + 2 pi k copy of a revolute joint included; ignore lists each branch once, "
+                                       "revolute angles in (-pi, pi], flagged within_limits")
+
+
+class IKVerification(BaseModel):
+    reference: str = Field(examples=["pinocchio 4.1.0"])
+    position_error: Union[float, list[float]] = Field(description="metres, Pinocchio's FK of the answer vs the target")
+    rotation_error: Union[float, list[float]] = Field(description="radians")
+
+
+class IKResponse(BaseModel):
+    model: str
+    link: str
+    mode: Literal["pose", "position"]
+    joint_names: list[str] = Field(description="the order of q")
+    q: Union[Vector, list[Vector]] = Field(description="the answer (the best found when success is false)")
+    success: Union[bool, list[bool]] = Field(
+        description="FK of q within the tolerances of the target, and q inside the joint limits")
+    position_error: Union[float, list[float]] = Field(description="metres, measured on the answer")
+    rotation_error: Union[float, list[float]] = Field(description="radians, measured on the answer")
+    iterations: Union[int, list[int]] = Field(description="steps taken, over every attempt")
+    verification: IKVerification | None = None
+
+
+
+#: request bodies read by the handlers themselves (JSON or .npy), declared for OpenAPI
+IK_EXAMPLES = {
+    "one_pose": {"summary": "ur5: put tool0 at a position and orientation",
+                 "value": {"link": "tool0", "target": {"xyz": [0.4, 0.1, 0.3], "rpy": [3.14159, 0, 0]}}},
+    "batch_position": {"summary": "two targets, position only, seeded, checked with Pinocchio",
+                       "value": {"link": "tool0", "mode": "position", "seed": [0, -1, 1, 0, 0, 0], "verify": True,
+                                 "target": [{"position": [0.4, 0.2, 0.3], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+                                            {"xyz": [0.3, -0.3, 0.5], "rpy": [0, 0, 0]}]}},
+}

@@ -1,0 +1,64 @@
+"""Wire schemas of Jacobians (``POST /models/{id}/jacobian``), geometric or analytic."""
+
+from __future__ import annotations
+
+from typing import Union
+
+from pydantic import BaseModel, Field
+
+from kinematics.spatial.reference import Reference
+
+from .common import UR5_HOME, JointsRequest, Matrix, References, TaskRepresentationName, Vector
+
+class JacobianVerification(BaseModel):
+    reference: str
+    max_jacobian_error: float = Field(description="largest entry-wise difference")
+
+
+
+_ANALYTIC_DESC = ("the analytic Jacobian J_r = dr/dq of this task vector instead of the geometric one "
+                  "(POST /models/{id}/task's use case): jacobian is m x dof and r is given; reference must be "
+                  "absent or local_world_aligned (J_r is built from that one), and verify checks that geometric "
+                  "Jacobian with Pinocchio (which has no analytic one)")
+
+
+class JacobianRequest(JointsRequest):
+    link: str | None = Field(default=None, description="default: the first leaf link")
+    reference: References = Field(default=Reference.WORLD, description="world | local | local_world_aligned (Pinocchio's meaning)")
+    representation: Union[TaskRepresentationName, None] = Field(default=None, description=_ANALYTIC_DESC)
+    components: list[str] | None = Field(default=None, description="with representation: keep these components "
+                                         "of the task vector (default all)")
+
+
+class JacobianResponse(BaseModel):
+    model: str
+    link: str
+    reference: References
+    joint_names: list[str] = Field(description="the order of the columns")
+    jacobian: Union[Matrix, list[Matrix]] = Field(description="6 x dof, linear rows first (batch: one per configuration); "
+                                                  "with representation: J_r = dr/dq, m x dof, rows as components")
+    singular_values: Union[Vector, list[Vector]]
+    manipulability: Union[float, list[float]] = Field(description="product of the singular values")
+    condition_number: Union[float, None, list[Union[float, None]]] = Field(
+        description="largest / smallest singular value; null at a singularity (infinite)")
+    out_of_limits: Union[list[str], list[list[str]]]
+    verification: JacobianVerification | None = None
+    representation: str | None = Field(default=None, description="with representation: its name")
+    components: list[str] | None = Field(default=None, description="with representation: the rows of jacobian and r")
+    r: Union[Vector, list[Vector], None] = Field(default=None, description="with representation: the task vector")
+
+
+JACOBIAN_EXAMPLES = {
+    "ur5_world": {
+        "summary": "UR5 tool0, world reference, verified",
+        "value": {"q": UR5_HOME, "link": "tool0", "reference": "world", "verify": True},
+    },
+    "ur5_batch_lwa": {
+        "summary": "UR5, a batch, local_world_aligned",
+        "value": {"q": [[0, 0, 0, 0, 0, 0], UR5_HOME], "link": "tool0", "reference": "local_world_aligned"},
+    },
+    "ur5_analytic_rpy": {
+        "summary": "UR5 tool0, analytic Jacobian of (px, py, pz, roll, pitch, yaw)",
+        "value": {"q": [0, -1.2, 1.5, -0.4, 1.1, 0.3], "link": "tool0", "representation": "rpy"},
+    },
+}

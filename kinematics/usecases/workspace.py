@@ -1,0 +1,37 @@
+"""The sampled workspace of the query's link (or of its point / tool frame)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..algorithms import workspace as _workspace
+from ..engine.poe import require_one_dof
+from ..errors import KinematicsError
+from ..model.robot import RobotModel
+from .query import Query
+
+
+def workspace(query: Query | RobotModel, link: str | None = None, *, samples: int = _workspace.DEFAULT_SAMPLES,
+              voxel: float | None = None, measure: str = "pose", random_seed: int = 0, progress=None,
+              **options: Any) -> _workspace.Workspace:
+    """The sampled workspace of the query's ``link`` (None: the first leaf link; ``link`` here
+    overrides it, ``workspace(model, "tool0")``), or of the frame ``point`` / ``tool`` on it:
+    ``samples`` configurations drawn uniformly within the limits (seeded by ``random_seed``),
+    their positions and manipulability (``measure``: ``pose``, the 6 x k Jacobian, or
+    ``position``, its 3 rows), the bounding box, reach, an occupancy-grid volume (area for a
+    planar arm) with its convergence and the dexterity map on cells of edge ``voxel`` (None:
+    chosen from the samples); see :mod:`kinematics.algorithms.workspace`. ``samples`` is bounded
+    by the budget's ``max_workspace_samples``; ``progress(n)`` is called after each chunk of n
+    samples."""
+    if link is not None:
+        options["link"] = link
+    query = Query.of(query, **options)
+    model = query.robot
+    link = model.leaf_links[0] if query.link is None else query.link
+    require_one_dof(model, "the workspace").link_indices([link])
+    samples = int(samples)
+    if samples < 1:
+        raise KinematicsError(f"samples: {samples}; give at least 1")
+    query.budget.check_workspace_samples(samples)
+    return _workspace.workspace(model, link, samples, tool=query.T_tool, measure=measure, voxel=voxel,
+                                random_seed=random_seed, progress=progress)
