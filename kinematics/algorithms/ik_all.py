@@ -186,25 +186,6 @@ def _wrap_revolute(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray
     return q
 
 
-def _dedupe(Q: np.ndarray, chain: Chain) -> np.ndarray:
-    """Indices of distinct rows of Q (already wrapped), the first of each group kept."""
-    keep: list[int] = []
-    rev = chain.revolute
-    cols = chain.columns
-    for i in range(len(Q)):
-        qi = Q[i, cols]
-        dup = False
-        for j in keep:
-            d = qi - Q[j, cols]
-            d = np.where(rev, np.abs(np.mod(d + np.pi, 2 * np.pi) - np.pi), np.abs(d))
-            if d.max(initial=0.0) <= DUPLICATE:
-                dup = True
-                break
-        if not dup:
-            keep.append(i)
-    return np.array(keep, dtype=np.intp)
-
-
 def _copies(model: RobotModel, chain: Chain, q: np.ndarray) -> list[np.ndarray]:
     """Every q + 2πk copy (revolute joints with limits) within the limits; [] when none fits."""
     options = []
@@ -291,23 +272,25 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         Qs = np.where(ok[:, None], Q, 0.0)
         p, r = pose_errors(poe.fk(Qs, [link], tool=tool)[:, 0], Tt)
         ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
-    lists: list[list[np.ndarray]] = []
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    keep = np.zeros(len(Q), bool)
+    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    rows, owner = Q[keep], owner[keep]
     complete = np.ones(N, bool)
-    for n in range(N):
-        idx = np.flatnonzero(ok & (owner == n))
-        sols = Q[idx][_dedupe(Q[idx], chain)] if idx.size else np.zeros((0, dof))
-        if use_closed and fam.near and len(sols) < _nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance):
-            complete[n] = False
-        if limits == "respect":
-            expanded = [c for s in sols for c in _copies(model, chain, s)]
-        else:
-            expanded = list(sols)
-        if seed is not None and expanded:
-            d = [float(np.abs(s - base_q[n]).sum()) for s in expanded]
-            expanded = [expanded[i] for i in np.argsort(d, kind="stable")]
-        lists.append(expanded)
-    return _pack(model, poe, link, tool, chain, lists, T_root, fam, "analytic" if use_closed else "search", complete,
-                 position_only)
+    if use_closed and fam.near:
+        found = np.bincount(owner, minlength=N)
+        for n in range(N):
+            if found[n] < _nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance):
+                complete[n] = False
+    if limits == "respect":
+        expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
+        owner = np.array([o for o, _ in expanded], dtype=np.intp)
+        rows = np.array([c for _, c in expanded]).reshape(len(expanded), dof)
+    if seed is not None and len(rows):
+        order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
+        rows, owner = rows[order], owner[order]
+    return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, "analytic" if use_closed else "search",
+                 complete, position_only)
 
 
 def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> int:
@@ -333,29 +316,31 @@ def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, r
     return len(keep)
 
 
-def _pack(model, poe, link, tool, chain, lists, T_root, fam, method, complete, position_only) -> AllSolutions:
-    N = len(lists)
-    K = max((len(l) for l in lists), default=0)
+def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only) -> AllSolutions:
+    """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target."""
     dof = model.dof
+    count = np.bincount(owner, minlength=N).astype(np.int64) if len(rows) else np.zeros(N, np.int64)
+    K = int(count.max(initial=0))
     q = np.full((N, K, dof), np.nan)
     within = np.zeros((N, K), bool)
     singular = np.zeros((N, K), bool)
     pe = np.full((N, K), np.nan)
     re = np.full((N, K), np.nan)
-    count = np.array([len(l) for l in lists], dtype=np.int64)
-    flat = [s for l in lists for s in l]
-    if flat:
-        Qf = np.array(flat)
-        owner = np.repeat(np.arange(N), count)
-        p, r = pose_errors(poe.fk(Qf, [link], tool=tool)[:, 0], T_root[owner])
-        J = poe.jacobian(Qf, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
+    if len(rows):
+        p, r = pose_errors(poe.fk(rows, [link], tool=tool)[:, 0], T_root[owner])
+        J = poe.jacobian(rows, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
         if position_only:
             J = J[:, :3]
-        s = np.linalg.svd(J, compute_uv=False)
-        sing = s[:, -1] <= SINGULAR * np.maximum(s[:, 0], 1e-300) if s.shape[1] >= chain.n else np.ones(len(Qf), bool)
-        inside = np.all((Qf >= model.lower_limits - LIMIT_TOLERANCE) & (Qf <= model.upper_limits + LIMIT_TOLERANCE), axis=1)
-        slot = np.concatenate([np.arange(c) for c in count])
-        q[owner, slot] = Qf
+        if J.shape[1] >= chain.n:  # σ_min² / σ_max² of J from the eigenvalues of JᵀJ (faster than an SVD)
+            lam = np.linalg.eigvalsh(np.einsum("nri,nrj->nij", J, J))
+            sing = lam[:, 0] <= (SINGULAR ** 2) * np.maximum(lam[:, -1], 1e-300)
+        else:
+            sing = np.ones(len(rows), bool)
+        inside = np.all((rows >= model.lower_limits - LIMIT_TOLERANCE) & (rows <= model.upper_limits + LIMIT_TOLERANCE),
+                        axis=1)
+        starts = np.concatenate([[0], np.cumsum(count)[:-1]])
+        slot = np.arange(len(rows)) - starts[owner]
+        q[owner, slot] = rows
         within[owner, slot] = inside
         singular[owner, slot] = sing
         pe[owner, slot] = p

@@ -248,3 +248,31 @@ def three_parallel(G, h, r, c, spread, Q, count, flag):
 
 __all__ = ["MAX_CANDIDATES", "POS_PARALLEL_23", "POS_INTERSECT_12", "POS_INTERSECT_12_PRISMATIC", "POS_PARALLEL_12",
            "spherical_wrist", "three_parallel", "DEGENERATE"]
+
+
+@nb.njit(**_JIT)
+def distinct_rows(Q, ok, starts, columns, revolute, tolerance, keep):
+    """``keep[i]``: row i of ``Q`` (R, dof) is ``ok`` and no earlier kept row of its group
+    (rows ``starts[g]:starts[g + 1]``) is within ``tolerance`` of it in every column of ``columns``
+    (revolute columns compared modulo 2π)."""
+    for g in range(starts.shape[0] - 1):
+        for i in range(starts[g], starts[g + 1]):
+            keep[i] = False
+            if not ok[i]:
+                continue
+            dup = False
+            for j in range(starts[g], i):
+                if not keep[j]:
+                    continue
+                far = False
+                for c in range(columns.shape[0]):
+                    d = Q[i, columns[c]] - Q[j, columns[c]]
+                    if revolute[c]:
+                        d = (d + math.pi) % (2.0 * math.pi) - math.pi
+                    if abs(d) > tolerance:
+                        far = True
+                        break
+                if not far:
+                    dup = True
+                    break
+            keep[i] = not dup
