@@ -140,3 +140,14 @@ def test_example_08_task_vectors_and_analytic_jacobians():
     assert "planar 2R: r = [0.5      0.4      1.570796] J_r = [[-0.4, -0.4], [0.5, 0.0], [1.0, 1.0]]" in out
     assert "rows ('px', 'py', 'pz', 'yaw')" in out
     assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
+
+
+def test_example_09_ik_all():
+    out = run_example("09_ik_all.py")
+    assert "ur5 family: three_parallel" in out
+    assert "8 solutions (analytic); first = seed: True" in out
+    assert deviation(out, "worst Pinocchio deviation:") < 1e-9
+    assert "within the limits, copies included: 256" in out
+    assert "panda, q7 locked: spherical_shoulder_intersecting_12, 8 solutions" in out
+    assert "3 m away: 0 solutions" in out
+    assert re.search(r"path: \d+ rows, complete True", out)
