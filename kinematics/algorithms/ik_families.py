@@ -182,7 +182,10 @@ class Family:
     ``max_solutions`` (None: not bounded by the structure), ``reversed`` (solved on the reversed
     chain), ``near`` (the chain is within the near tolerances, not exactly of the family), ``deviation``
     (the largest angle/distance from the exact family), ``ideal`` (the chain the closed form runs on),
-    ``kernel`` and ``position`` (which compiled kernel), ``centre`` (the wrist centre of ``ideal``)."""
+    ``kernel`` and ``position`` (which compiled kernel), ``centre`` (the wrist centre of ``ideal``).
+
+    Chains of fewer than six joints are ``planar`` (every axis parallel: 2R, 3R, SCARA) or
+    ``short_chain``; like ``general`` 6R chains they are solved by the multistart search."""
 
     name: str
     subproblems: tuple[int, ...]
@@ -276,4 +279,11 @@ def detect(ch: Chain) -> Family:
                 name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
                     else fam.name + "_reversed"
                 return replace(fam, name=name, chain=ch, reversed=True, near=near)
+    if ch.n < 6 and ch.n > 0:
+        # a short chain: planar when every axis is parallel to the first revolute one (2R, 3R, SCARA)
+        rev = np.flatnonzero(ch.revolute)
+        ref = ch.h[rev[0]] if rev.size else ch.h[0]
+        if all(_angle(ref, h) < EXACT_ANGLE for h in ch.h):
+            return Family("planar", (), False, 2 if rev.size >= 2 else 1, ch)
+        return Family("short_chain", (), False, None, ch)
     return Family("general", (), False, 16 if ch.n == 6 else None, ch)

@@ -265,3 +265,21 @@ def test_api_answer_and_seed_order(catalogue):
     one = api.ik(model, T, link="tool0", method="analytic", seed=q + 0.01)
     np.testing.assert_allclose(one.solution.q[0], q, atol=1e-9)
     assert api.ik_family(catalogue.get("panda"), link="panda_link8", locked={"panda_joint7": 0.0})["closed_form"]
+
+
+@pytest.mark.parametrize("model_id, mode, family, count", [
+    ("planar_2r", "position", "planar", 2),  # elbow up and down
+    ("planar_3r", "pose", "planar", 2),
+    ("scara", "pose", "planar", 2),
+    ("rpr_example", "pose", "short_chain", 1),
+])
+def test_short_chains_every_solution_by_search(catalogue, model_id, mode, family, count):
+    model = catalogue.get(model_id)
+    link = model.leaf_links[0]
+    assert detect(reduce_chain(model, link)).name == family
+    Q, T = _targets(model, link, 6, seed=12)
+    sol = all_solutions(model, link, T, limits="ignore", mode=mode)
+    assert sol.method == "search" and np.all(sol.count == count)
+    cols = np.arange(model.dof)
+    for n in range(len(Q)):
+        assert _contains(sol, n, Q[n], cols)
