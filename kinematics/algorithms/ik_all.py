@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import ik_closed
+from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
@@ -52,6 +53,8 @@ SEARCH_SEEDS = 512
 DUPLICATE = 1e-6
 #: a squared pose error below this is converged (Newton stops for that row)
 CONVERGED = 1e-28
+#: targets per thread of the closed-form kernel at least
+CLOSED_FORM_MIN_ROWS = 64
 #: σ_min / σ_max of the Jacobian below this: a singular configuration
 SINGULAR = 1e-7
 
@@ -168,11 +171,16 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | Non
     h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
     if spread is None:
         spread = NEAR_SPREAD if fam.near else 0.0
-    if fam.kernel == "spherical_wrist":
-        ik_closed.spherical_wrist(G, h, r, not bool(ideal.revolute[2]), np.ascontiguousarray(fam.centre),
-                                  fam.position, spread, Q, count, flag)
-    else:
-        ik_closed.three_parallel(G, h, r, np.ascontiguousarray(fam.centre), spread, Q, count, flag)
+    centre = np.ascontiguousarray(fam.centre)
+
+    def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
+        if fam.kernel == "spherical_wrist":
+            ik_closed.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
+                                      Q[a:b], count[a:b], flag[a:b])
+        else:
+            ik_closed.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
+
+    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
     if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
         Q = -Q[:, :, ::-1]
     return Q, count
@@ -316,6 +324,22 @@ def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, r
     return len(keep)
 
 
+def _singular(J: np.ndarray) -> np.ndarray:
+    """σ_min / σ_max of each J (R, m, n), m >= n, at most :data:`SINGULAR`. A square J whose
+    ``|det J| / ‖J‖_F^n`` (a lower bound of σ_min / σ_max) is above the threshold is regular without
+    more work; the others get the eigenvalues of ``JᵀJ``."""
+    out = np.zeros(len(J), bool)
+    todo = np.arange(len(J))
+    if J.shape[1] == J.shape[2]:
+        F = np.linalg.norm(J, axis=(1, 2))
+        bound = np.abs(np.linalg.det(J)) / np.maximum(F, 1e-300) ** J.shape[2]
+        todo = np.flatnonzero(~(bound > SINGULAR))
+    if todo.size:
+        lam = np.linalg.eigvalsh(np.einsum("nri,nrj->nij", J[todo], J[todo]))
+        out[todo] = lam[:, 0] <= (SINGULAR ** 2) * np.maximum(lam[:, -1], 1e-300)
+    return out
+
+
 def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only) -> AllSolutions:
     """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target."""
     dof = model.dof
@@ -331,11 +355,7 @@ def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, co
         J = poe.jacobian(rows, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
         if position_only:
             J = J[:, :3]
-        if J.shape[1] >= chain.n:  # σ_min² / σ_max² of J from the eigenvalues of JᵀJ (faster than an SVD)
-            lam = np.linalg.eigvalsh(np.einsum("nri,nrj->nij", J, J))
-            sing = lam[:, 0] <= (SINGULAR ** 2) * np.maximum(lam[:, -1], 1e-300)
-        else:
-            sing = np.ones(len(rows), bool)
+        sing = _singular(J) if J.shape[1] >= chain.n else np.ones(len(rows), bool)
         inside = np.all((rows >= model.lower_limits - LIMIT_TOLERANCE) & (rows <= model.upper_limits + LIMIT_TOLERANCE),
                         axis=1)
         starts = np.concatenate([[0], np.cumsum(count)[:-1]])

@@ -283,3 +283,18 @@ def test_short_chains_every_solution_by_search(catalogue, model_id, mode, family
     cols = np.arange(model.dof)
     for n in range(len(Q)):
         assert _contains(sol, n, Q[n], cols)
+
+
+def test_general_6r_more_seeds_find_nothing_new():
+    """The search's 512 seeds against 4,096 on the same targets: the same set (no more than 16)."""
+    model = _general_6r()
+    link = model.leaf_links[0]
+    _, T = _targets(model, link, 2, seed=21)
+    ours = all_solutions(model, link, T, limits="ignore")
+    dense = all_solutions(model, link, T, limits="ignore", search_seeds=4096)
+    cols = np.arange(6)
+    assert np.all(ours.count <= 16)
+    for n in range(len(T)):
+        assert dense.count[n] == ours.count[n]
+        for q in dense.q[n, :dense.count[n]]:
+            assert _contains(ours, n, q, cols)
