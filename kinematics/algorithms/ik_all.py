@@ -243,6 +243,9 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
                               "use 'auto' or 'numeric'")
     position_only = mode == "position"
+    if position_only and chain.n > 3:
+        raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
+                              "so a position alone has infinitely many solutions; give a pose, or lock joints")
     use_closed = fam.closed_form and method != "numeric" and not position_only
     poe = compile_model(model)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)

@@ -298,3 +298,21 @@ def test_general_6r_more_seeds_find_nothing_new():
         assert dense.count[n] == ours.count[n]
         for q in dense.q[n, :dense.count[n]]:
             assert _contains(ours, n, q, cols)
+
+
+def test_base_and_tool_on_the_closed_form(catalogue):
+    model = catalogue.get("kuka_kr5_sixx")
+    base = np.eye(4); base[:3, 3] = [0.3, -0.2, 0.1]
+    base[:3, :3] = exp_screws(np.array([[0.0, 0, 1]]), np.zeros((1, 3)), np.array([True]), np.array([0.7]))[0][:3, :3]
+    q = np.array([0.2, -0.3, 0.4, 0.5, -0.6, 0.7])
+    a = api.ik(model, np.eye(4), link="tool", solutions="all")  # warm; any answer
+    base = base.tolist()
+    T = api.fk(model, q, links=["tool"], base=base, point=[0.0, 0.05, 0.1]).poses[0, 0]
+    a = api.ik(model, T, link="tool", solutions="all", limits="ignore", base=base, point=[0.0, 0.05, 0.1], verify=True)
+    assert a.method == "analytic" and _contains(a, 0, q, np.arange(6))
+    assert a.verification["max_position_error"] < EXACT
+
+
+def test_position_mode_of_a_six_joint_chain_is_refused(catalogue):
+    with pytest.raises(Exception, match="infinitely many"):
+        all_solutions(catalogue.get("ur5"), "tool0", np.eye(4)[None], mode="position")
