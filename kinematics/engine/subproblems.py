@@ -11,8 +11,10 @@ screws. ``R(k, θ) = I + sin θ [k] + (1 - cos θ) [k]²`` is the rotation by θ
 | ``sp2(p1, p2, k1, k2)`` | ``R(k1, θ1) p1 = R(k2, θ2) p2`` | 0, 1 or 2 |
 | ``sp3(p1, p2, k, d)`` | ``‖R(k, θ) p1 − p2‖ = d`` | 0, 1 or 2 |
 | ``sp4(h, p, k, d)`` | ``hᵀ R(k, θ) p = d`` | 0, 1 or 2 |
+| ``sp6(h, k, p, d1, d2)`` | two equations ``Σ hᵀ R(k, θ) p = d`` in (θ1, θ2) | 0 to 4 |
 
-Each returns the solutions and a **flag**: ``EXACT`` (every returned θ satisfies the equation),
+Subproblem 5 (a point through three rotations) is not here yet: the families solved in closed
+form need only 1-4. Each returns the solutions and a **flag**: ``EXACT`` (every returned θ satisfies the equation),
 ``LEAST_SQUARES`` (no exact solution: the returned θ minimises the equation's error -- a caller
 keeps it only when the error is within its tolerance, e.g. a target just outside the reach
 by rounding) or ``DEGENERATE`` (infinitely many solutions -- the data leave θ free, e.g. ``p1`` on
@@ -218,3 +220,91 @@ def wrap(theta):
     """Angles into (−π, π] (numpy, any shape)."""
     out = np.mod(np.asarray(theta, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
     return np.where(out == -np.pi, np.pi, out)
+
+
+@nb.njit(**_JIT)
+def _terms(h, k, p):
+    """``hᵀ R(k, θ) p = a cos θ + b sin θ + c``: (a, b, c)."""
+    kp = dot(k, p)
+    hk = dot(h, k)
+    return dot(h, p) - hk * kp, dot(h, cross(k, p)), hk * kp
+
+
+@nb.njit(**_JIT)
+def sp6(h, k, p, d1, d2):
+    """θ1 (4,), θ2 (4,), count and flag of Elias & Wen's subproblem 6:
+
+        h[0]ᵀ R(k[0], θ1) p[0] + h[1]ᵀ R(k[1], θ2) p[1] = d1
+        h[2]ᵀ R(k[2], θ1) p[2] + h[3]ᵀ R(k[3], θ2) p[3] = d2
+
+    (``h``, ``k``, ``p``: (4, 3)). Each term is linear in ``x1 = (cos θ1, sin θ1)`` or
+    ``x2 = (cos θ2, sin θ2)``: ``A x1 + B x2 = e``. With B invertible, ``x2 = B⁻¹ (e − A x1)`` and
+    ``|x2|² = 1`` is a quadratic form in x1; ``t = tan(θ1 / 2)`` makes it a quartic (up to four
+    solutions, θ1 = π checked apart). Degenerate when B is singular (swap the roles: the caller
+    may exchange the two joints)."""
+    t1 = np.zeros(4)
+    t2 = np.zeros(4)
+    a1, b1, c1 = _terms(h[0], k[0], p[0])
+    a2, b2, c2 = _terms(h[1], k[1], p[1])
+    a3, b3, c3 = _terms(h[2], k[2], p[2])
+    a4, b4, c4 = _terms(h[3], k[3], p[3])
+    e1, e2 = d1 - c1 - c2, d2 - c3 - c4
+    det = a2 * b4 - b2 * a4
+    scale = max(abs(a2), abs(b2), abs(a4), abs(b4), 1e-300)
+    if abs(det) <= 1e-12 * scale * scale:
+        return t1, t2, 0, DEGENERATE
+    # x2 = Binv (e - A x1), Binv = [[b4, -b2], [-a4, a2]] / det; A = [[a1, b1], [a3, b3]]
+    i11, i12, i21, i22 = b4 / det, -b2 / det, -a4 / det, a2 / det
+    # x2 = u + U x1 with u = Binv e, U = -Binv A
+    u1 = i11 * e1 + i12 * e2
+    u2 = i21 * e1 + i22 * e2
+    U11 = -(i11 * a1 + i12 * a3)
+    U12 = -(i11 * b1 + i12 * b3)
+    U21 = -(i21 * a1 + i22 * a3)
+    U22 = -(i21 * b1 + i22 * b3)
+    # |u + U x1|² − 1 = m11 c² + 2 m12 c s + m22 s² + 2 n1 c + 2 n2 s + w
+    m11 = U11 * U11 + U21 * U21
+    m12 = U11 * U12 + U21 * U22
+    m22 = U12 * U12 + U22 * U22
+    n1 = u1 * U11 + u2 * U21
+    n2 = u1 * U12 + u2 * U22
+    w = u1 * u1 + u2 * u2 - 1.0
+    # c = (1 − t²)/(1 + t²), s = 2t/(1 + t²), times (1 + t²)²
+    coeffs = np.zeros(5)
+    coeffs[0] = m11 - 2.0 * n1 + w                      # t⁴
+    coeffs[1] = -4.0 * m12 + 4.0 * n2                   # t³
+    coeffs[2] = -2.0 * m11 + 4.0 * m22 + 2.0 * w        # t²
+    coeffs[3] = 4.0 * m12 + 4.0 * n2                    # t
+    coeffs[4] = m11 + 2.0 * n1 + w                      # 1
+    count = 0
+    cands = np.zeros(5)
+    nc = 0
+    big = max(abs(coeffs[0]), abs(coeffs[1]), abs(coeffs[2]), abs(coeffs[3]), abs(coeffs[4]), 1e-300)
+    if abs(coeffs[0]) <= 1e-14 * big:  # a root at t = ∞: θ1 = π
+        cands[nc] = math.pi
+        nc += 1
+    first = 0
+    while first < 4 and abs(coeffs[first]) <= 1e-14 * big:
+        first += 1
+    if first < 4:
+        roots = np.roots(coeffs[first:].astype(np.complex128))
+        for r in roots:
+            if abs(r.imag) <= 1e-7 * max(1.0, abs(r.real)):
+                cands[nc] = 2.0 * math.atan(r.real)
+                nc += 1
+    flag = EXACT
+    for i in range(nc):
+        th = cands[i]
+        c, s = math.cos(th), math.sin(th)
+        x1 = u1 + U11 * c + U12 * s
+        x2 = u2 + U21 * c + U22 * s
+        dup = False
+        for j in range(count):
+            if abs(math.atan2(math.sin(th - t1[j]), math.cos(th - t1[j]))) < 1e-9:
+                dup = True
+        if dup or count >= 4:
+            continue
+        t1[count] = th
+        t2[count] = math.atan2(x2, x1)
+        count += 1
+    return t1, t2, count, flag

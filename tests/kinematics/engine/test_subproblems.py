@@ -4,7 +4,7 @@ the count is right, and the least-squares and degenerate cases are flagged."""
 import numpy as np
 import pytest
 
-from kinematics.engine.subproblems import DEGENERATE, EXACT, LEAST_SQUARES, rot, rotate, sp1, sp2, sp3, sp4, trig_solve
+from kinematics.engine.subproblems import DEGENERATE, EXACT, LEAST_SQUARES, rot, rotate, sp1, sp2, sp3, sp4, sp6, trig_solve
 
 RNG = np.random.default_rng(7)
 TRIALS = 300
@@ -119,3 +119,63 @@ def test_two_solutions_are_distinct(f):
     else:
         sols, n, _ = f(np.array([1.0, 0, 0]), np.array([1.0, 0, 0]), k, 0.5)
     assert n == 2 and abs(sols[0] - sols[1]) > 0.1
+
+
+def test_sp6_random():
+    found_all = 0
+    for _ in range(TRIALS):
+        h = np.array([unit(RNG) for _ in range(4)])
+        k = np.array([unit(RNG) for _ in range(4)])
+        p = RNG.normal(size=(4, 3))
+        a, b = RNG.uniform(-np.pi, np.pi, 2)
+        d1 = h[0] @ rot(k[0], a) @ p[0] + h[1] @ rot(k[1], b) @ p[1]
+        d2 = h[2] @ rot(k[2], a) @ p[2] + h[3] @ rot(k[3], b) @ p[3]
+        t1, t2, n, flag = sp6(h, k, p, d1, d2)
+        assert flag == EXACT and 1 <= n <= 4
+        for i in range(n):
+            e1 = h[0] @ rot(k[0], t1[i]) @ p[0] + h[1] @ rot(k[1], t2[i]) @ p[1] - d1
+            e2 = h[2] @ rot(k[2], t1[i]) @ p[2] + h[3] @ rot(k[3], t2[i]) @ p[3] - d2
+            assert abs(e1) < 1e-9 and abs(e2) < 1e-9
+        close = [abs(np.mod(t1[i] - a + np.pi, 2 * np.pi) - np.pi) < 1e-5 and
+                 abs(np.mod(t2[i] - b + np.pi, 2 * np.pi) - np.pi) < 1e-5 for i in range(n)]
+        found_all += any(close)
+    assert found_all == TRIALS
+
+
+def test_sp6_counts_every_root_of_a_known_instance():
+    # the unit circle x1 and x2 = x1 rotated: with h = k-perpendicular projections, 2 solutions
+    z = np.array([0.0, 0, 1])
+    x, y = np.array([1.0, 0, 0]), np.array([0.0, 1, 0])
+    h = np.array([x, x, y, y]); k = np.array([z, z, z, z]); p = np.array([x, x, x, x])
+    # cos θ1 + cos θ2 = 1, sin θ1 + sin θ2 = 0: θ1 = ±60°, θ2 = ∓60°
+    t1, t2, n, flag = sp6(h, k, p, 1.0, 0.0)
+    assert n == 2 and np.allclose(sorted(np.abs(t1[:n])), [np.pi / 3] * 2)
+    assert np.allclose(t1[:n], -t2[:n])
+
+
+def test_sp6_misses_no_root_of_a_dense_scan():
+    """The number of solutions equals the sign changes of |x2(θ1)|² − 1 over a fine grid of θ1."""
+    rng = np.random.default_rng(3)
+    grid = np.linspace(-np.pi, np.pi, 200_001)
+    c, s = np.cos(grid), np.sin(grid)
+
+    def terms(hh, kk, pp):  # hᵀ R(k, θ) p = a cos θ + b sin θ + e
+        kp = kk @ pp
+        return hh @ pp - (hh @ kk) * kp, hh @ np.cross(kk, pp), (hh @ kk) * kp
+
+    for _ in range(60):
+        h = np.array([unit(rng) for _ in range(4)])
+        k = np.array([unit(rng) for _ in range(4)])
+        p = rng.normal(size=(4, 3))
+        a, b = rng.uniform(-np.pi, np.pi, 2)
+        d1 = h[0] @ rot(k[0], a) @ p[0] + h[1] @ rot(k[1], b) @ p[1]
+        d2 = h[2] @ rot(k[2], a) @ p[2] + h[3] @ rot(k[3], b) @ p[3]
+        T = [terms(h[i], k[i], p[i]) for i in range(4)]
+        B = np.array([[T[1][0], T[1][1]], [T[3][0], T[3][1]]])
+        rhs = np.stack([d1 - T[0][2] - T[1][2] - T[0][0] * c - T[0][1] * s,
+                        d2 - T[2][2] - T[3][2] - T[2][0] * c - T[2][1] * s])
+        x2 = np.linalg.solve(B, rhs)
+        f = np.sum(x2 * x2, axis=0) - 1.0
+        changes = int(np.sum(np.sign(f[1:]) != np.sign(f[:-1])))
+        n = sp6(h, k, p, d1, d2)[2]
+        assert n == changes, (n, changes)
