@@ -51,6 +51,8 @@ NEAR_SPREAD = 0.05
 SEARCH_SEEDS = 512
 #: two solutions closer than this (rad or m, largest joint difference) are one
 DUPLICATE = 1e-6
+#: a listed solution's error above this (m + rad) gets up to FINAL_STEPS more Newton steps
+TIGHT, FINAL_STEPS = 1e-13, 60
 #: a squared pose error below this is converged (Newton stops for that row)
 CONVERGED = 1e-28
 #: targets per thread of the closed-form kernel at least
@@ -282,6 +284,14 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         ok = np.all(np.isfinite(Q), axis=1)
         Qs = np.where(ok[:, None], Q, 0.0)
         p, r = pose_errors(poe.fk(Qs, [link], tool=tool)[:, 0], Tt)
+        # rows near a solution but not on it to machine precision (a double root where two branches
+        # meet converges only linearly): more Newton steps before the check
+        slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
+                              & (p < 1e3 * position_tolerance) & (position_only | (r < 1e3 * rotation_tolerance)))
+        if slow.size:
+            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
+                                                          position_only, False))
+            p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
         ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
     keep = np.zeros(len(Q), bool)
@@ -289,10 +299,30 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     rows, owner = Q[keep], owner[keep]
     complete = np.ones(N, bool)
     if use_closed and fam.near:
+        # a near family: where the polish found fewer solutions than the ideal chain has (a branch
+        # lost by a singularity or the edge of the reach), the search joins in for that target
         found = np.bincount(owner, minlength=N)
-        for n in range(N):
-            if found[n] < _nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance):
-                complete[n] = False
+        nominal = np.array([_nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance)
+                            for n in range(N)], dtype=np.int64)
+        short = np.flatnonzero(found < nominal)
+        if short.size:
+            extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
+                                  method="numeric", mode=mode, position_tolerance=position_tolerance,
+                                  rotation_tolerance=rotation_tolerance, search_seeds=search_seeds)
+            more = [np.concatenate([rows[owner == n], _with_free(base_q[n], chain, extra.q[i, :extra.count[i]])])
+                    for i, n in enumerate(short)]
+            keep_rows = [rows[owner == n] for n in range(N)]
+            for i, n in enumerate(short):
+                keep_rows[n] = more[i]
+            owner = np.concatenate([np.full(len(r), n, dtype=np.intp) for n, r in enumerate(keep_rows)])
+            rows = np.concatenate(keep_rows) if owner.size else rows
+            starts = np.concatenate([[0], np.cumsum([len(r) for r in keep_rows])]).astype(np.intp)
+            keep = np.zeros(len(rows), bool)
+            ik_closed.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE,
+                                    keep)
+            rows, owner = rows[keep], owner[keep]
+            found = np.bincount(owner, minlength=N)
+        complete = found >= nominal
     if limits == "respect":
         expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
         owner = np.array([o for o, _ in expanded], dtype=np.intp)
@@ -302,6 +332,13 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         rows, owner = rows[order], owner[order]
     return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, "analytic" if use_closed else "search",
                  complete, position_only)
+
+
+def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
+    """Rows of ``Q`` (K, dof) with the joints off the chain taken from ``base`` (dof,)."""
+    out = np.repeat(base[None], len(Q), 0)
+    out[:, chain.columns] = Q[:, chain.columns]
+    return out
 
 
 def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> int:
