@@ -302,8 +302,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
         # lost by a singularity or the edge of the reach), the search joins in for that target
         found = np.bincount(owner, minlength=N)
-        nominal = np.array([_nominal_count(fam, T_root[n:n + 1], position_tolerance, rotation_tolerance)
-                            for n in range(N)], dtype=np.int64)
+        nominal = _nominal_counts(fam, T_root, position_tolerance, rotation_tolerance)
         short = np.flatnonzero(found < nominal)
         if short.size:
             extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
@@ -341,27 +340,29 @@ def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _nominal_count(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> int:
-    """How many distinct solutions the *ideal* chain has for one target (its closed form's candidates
-    that meet the tolerances on the ideal chain's own FK)."""
+def _nominal_counts(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> np.ndarray:
+    """How many distinct solutions the *ideal* chain has for each target (N,): its closed form's
+    candidates that meet the tolerances on the ideal chain's own FK."""
     cand, counts = _closed_form_candidates(fam, T_root, 0.0)
-    c = cand[0, :counts[0]]
+    N = len(T_root)
+    owner = np.repeat(np.arange(N), counts)
+    c = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, 6))
     if fam.reversed:
         c = -c[:, ::-1]  # back to the ideal (reversed) chain's own joint values
     ideal = fam.ideal
     E = exp_screws(ideal.h, ideal.r, ideal.revolute, c)
     F = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
     for j in range(ideal.n):
-        F = F @ E[:, j]
-    F = F @ ideal.M
-    goal = inverse_transform(T_root) if fam.reversed else T_root
-    p, r = pose_errors(F, np.broadcast_to(goal, (len(c), 4, 4)))
-    rev = ideal.revolute
-    keep: list[np.ndarray] = []
-    for row in c[(p <= position_tolerance) & (r <= rotation_tolerance)]:
-        if all(np.abs(np.where(rev, np.mod(row - k + np.pi, 2 * np.pi) - np.pi, row - k)).max() > DUPLICATE for k in keep):
-            keep.append(row)
-    return len(keep)
+        F = np.einsum("nij,njk->nik", F, E[:, j])
+    F = np.einsum("nij,jk->nik", F, ideal.M)
+    goal = (inverse_transform(T_root) if fam.reversed else T_root)[owner]
+    p, r = pose_errors(F, goal)
+    ok = np.isfinite(p) & (p <= position_tolerance) & (r <= rotation_tolerance)
+    keep = np.zeros(len(c), bool)
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    ik_closed.distinct_rows(np.ascontiguousarray(c), ok, starts, np.arange(ideal.n, dtype=np.intp), ideal.revolute,
+                            DUPLICATE, keep)
+    return np.bincount(owner[keep], minlength=N)
 
 
 def _singular(J: np.ndarray) -> np.ndarray:
