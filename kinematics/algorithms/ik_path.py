@@ -14,6 +14,14 @@ ends there, e.g. at a singularity, and any continuation would flip the arm).
 
 The answer's ``fraction`` is the share of the path's length achieved (positions; rotation angles
 for a path that only turns).
+
+Ten centimetres along x at 2 cm steps are five steps, six targets:
+
+>>> a, b = np.eye(4), np.eye(4)
+>>> b[0, 3] = 0.1
+>>> T, length = interpolate(np.array([a, b]), 0.02, 0.05)
+>>> T[:, 0, 3].round(3).tolist(), float(length[-1])
+([0.0, 0.02, 0.04, 0.06, 0.08, 0.1], 0.1)
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 :mod:`kinematics.algorithms.ik_families`, :mod:`kinematics.algorithms.ik_path`).
 
 >>> from kinematics.io import default_catalogue
+>>> from kinematics.usecases.fk import fk
 >>> ur5 = default_catalogue().get("ur5")
->>> T = fk_pose = __import__("kinematics").fk(ur5, [0.3, -1.0, 1.2, -0.5, 0.8, 0.2], links=["tool0"]).poses[0, 0]
+>>> T = fk(ur5, [0.3, -1.0, 1.2, -0.5, 0.8, 0.2], links=["tool0"]).poses[0, 0]
 >>> a = ik_all(Query(ur5, link="tool0"), T, limits="ignore")
 >>> a.family, a.method, int(a.count[0]), bool(a.position_error[0, :8].max() < 1e-9)
 ('three_parallel', 'analytic', 8, True)
