@@ -307,6 +307,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     keep = np.zeros(len(Q), bool)
     ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
     rows, owner = Q[keep], owner[keep]
+    # the errors measured on these very rows (None: measured again in _pack, after any change of rows)
+    errors = (p[keep], r[keep]) if len(Q) else None
     complete = np.ones(N, bool)
     if use_closed and fam.near:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
@@ -331,16 +333,19 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                                     keep)
             rows, owner = rows[keep], owner[keep]
             found = np.bincount(owner, minlength=N)
+            errors = None
         complete = found >= nominal
     if limits == "respect":
         expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
         owner = np.array([o for o, _ in expanded], dtype=np.intp)
         rows = np.array([c for _, c in expanded]).reshape(len(expanded), dof)
+        errors = None
     if seed is not None and len(rows):
         order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
         rows, owner = rows[order], owner[order]
+        errors = None if errors is None else (errors[0][order], errors[1][order])
     return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, "analytic" if use_closed else "search",
-                 complete, position_only)
+                 complete, position_only, errors)
 
 
 def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
@@ -391,7 +396,8 @@ def _singular(J: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only) -> AllSolutions:
+def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only,
+          errors=None) -> AllSolutions:
     """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target."""
     dof = model.dof
     count = np.bincount(owner, minlength=N).astype(np.int64) if len(rows) else np.zeros(N, np.int64)
@@ -402,7 +408,7 @@ def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, co
     pe = np.full((N, K), np.nan)
     re = np.full((N, K), np.nan)
     if len(rows):
-        p, r = pose_errors(poe.fk(rows, [link], tool=tool)[:, 0], T_root[owner])
+        p, r = errors if errors is not None else pose_errors(poe.fk(rows, [link], tool=tool)[:, 0], T_root[owner])
         J = poe.jacobian(rows, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
         if position_only:
             J = J[:, :3]
