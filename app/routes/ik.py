@@ -14,7 +14,7 @@ With ``solutions: "all"`` the answer lists every solution (``count``, ``solution
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, Union
 
 from fastapi import APIRouter, Depends, Query, Request
 
@@ -28,7 +28,7 @@ from ..errors import ProblemError
 from ..metrics import record_ik
 from ..npy import decode_targets
 from ..responses import NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
-from ..schemas import IK_EXAMPLES, IKRequest, IKResponse
+from ..schemas import IK_EXAMPLES, IKAllResponse, IKRequest, IKResponse
 from ..settings import Settings
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
@@ -67,7 +67,7 @@ async def read_ik_request(
 
 
 @router.post(
-    "/models/{model_id}/ik", response_model=IKResponse,
+    "/models/{model_id}/ik", response_model=Union[IKResponse, IKAllResponse],
     responses={200: npy_response_doc("np.savez: q (N, dof), success (N,), position_error (N,), rotation_error (N,), "
                                      "iterations (N,)", NPZ_MEDIA_TYPE),
                **error_responses({413: "body, targets or IK work (targets x attempts x iterations) over a limit",
