@@ -62,7 +62,7 @@ SEARCH_SEEDS = 512
 #: two solutions closer than this (rad or m, largest joint difference) are one
 DUPLICATE = 1e-6
 #: a listed solution's error above this (m + rad) gets up to FINAL_STEPS more Newton steps
-TIGHT, FINAL_STEPS = 1e-13, 60
+TIGHT, FINAL_STEPS = 1e-12, 30
 #: a squared pose error below this is converged (Newton stops for that row)
 CONVERGED = 1e-28
 #: targets per thread of the closed-form kernel at least
@@ -142,7 +142,8 @@ def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns
         took = active[better]
         Q[took], e[took], cost[took] = trial[better], e2[better], cost2[better]
         lam[active] = np.where(better, np.maximum(lam[active] / 4.0, 1e-15), np.minimum(lam[active] * 8.0, 1e6))
-        active = active[cost[active] > CONVERGED]
+        # a row leaves once converged, or once stuck (its damping at the ceiling: no step lowers its error)
+        active = active[(cost[active] > CONVERGED) & (lam[active] < 1e6)]
     return Q
 
 
@@ -297,7 +298,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         # rows near a solution but not on it to machine precision (a double root where two branches
         # meet converges only linearly): more Newton steps before the check
         slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
-                              & (p < 1e3 * position_tolerance) & (position_only | (r < 1e3 * rotation_tolerance)))
+                              & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
         if slow.size:
             Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
                                                           position_only, False))
