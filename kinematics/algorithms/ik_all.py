@@ -5,7 +5,8 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
 
 1. folds the ``locked`` joints into the chain and names its family
    (:mod:`kinematics.algorithms.ik_families`);
-2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_closed`,
+2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
+   allocation-free form of :mod:`kinematics.engine.ik_closed`,
    on the *ideal* chain for a robot near a family, e.g. a calibrated UR), or -- for a chain with no
    closed form (``method: "numeric"``, a general 6R, chains of fewer joints) -- damped Newton
    from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
@@ -40,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import ik_closed
+from ..engine import ik_closed, ik_fast
 from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
@@ -188,10 +189,10 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | Non
 
     def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
         if fam.kernel == "spherical_wrist":
-            ik_closed.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
-                                      Q[a:b], count[a:b], flag[a:b])
+            ik_fast.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
+                                    Q[a:b], count[a:b], flag[a:b])
         else:
-            ik_closed.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
+            ik_fast.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
 
     run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
     if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
