@@ -284,7 +284,15 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     rows = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
     Q[:, chain.columns] = rows
     Tt = T_root[owner]
-    if len(Q):
+    if len(Q) and not damped:
+        # the closed form: measure once, polish only the rows not yet on a solution (most are)
+        Q = _wrap_revolute(model, chain, Q)
+        finite = np.all(np.isfinite(Q), axis=1)
+        p0, r0 = pose_errors(poe.fk(np.where(finite[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+        todo = np.flatnonzero(finite & ~((p0 <= TIGHT) & (r0 <= TIGHT)))
+        if todo.size:
+            Q[todo] = newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool, position_only, False)
+    elif len(Q):
         Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
         if damped:  # then undamped steps on the rows that came near a solution: quadratic convergence onto it
             e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
@@ -294,14 +302,21 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     ok = np.zeros(len(Q), bool)
     if len(Q):
         ok = np.all(np.isfinite(Q), axis=1)
-        Qs = np.where(ok[:, None], Q, 0.0)
-        p, r = pose_errors(poe.fk(Qs, [link], tool=tool)[:, 0], Tt)
+        if not damped:  # measured above; again only where Newton moved a row
+            p, r = p0, r0
+            if todo.size:
+                p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
+                                               Tt[todo])
+        else:
+            p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
         # rows near a solution but not on it to machine precision (a double root where two branches
         # meet converges only linearly): more Newton steps before the check
         slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
                               & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
         if slow.size:
-            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
+            # (an exact closed form lands on its solutions: a few steps are enough there)
+            final = POLISH_STEPS if use_closed and not fam.near else FINAL_STEPS
+            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, final, tool,
                                                           position_only, False))
             p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
         ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
