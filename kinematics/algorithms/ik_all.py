@@ -188,7 +188,9 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | Non
     centre = np.ascontiguousarray(fam.centre)
 
     def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
-        if fam.kernel == "spherical_wrist":
+        if fam.kernel == "spherical_wrist_search":
+            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, Q[a:b], count[a:b], flag[a:b])
+        elif fam.kernel == "spherical_wrist":
             ik_fast.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
                                     Q[a:b], count[a:b], flag[a:b])
         else:
@@ -260,7 +262,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     if position_only and chain.n > 3:
         raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
                               "so a position alone has infinitely many solutions; give a pose, or lock joints")
-    use_closed = fam.closed_form and method != "numeric" and not position_only
+    # a family's compiled kernel: its closed form, or the bracketing search of a spherical wrist on a general arm
+    use_closed = bool(fam.kernel) and method != "numeric" and not position_only
     poe = compile_model(model)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     N = targets.shape[0]
@@ -361,7 +364,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
         rows, owner = rows[order], owner[order]
         errors = None if errors is None else (errors[0][order], errors[1][order])
-    return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, "analytic" if use_closed else "search",
+    return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam,
+                 "analytic" if use_closed and fam.closed_form else "search",
                  complete, position_only, errors)
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..engine import ik_closed
+from ..engine import ik_closed, ik_fast
 from ..engine.compiled import PRISMATIC
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError, LockedJointError, did_you_mean
@@ -243,6 +243,12 @@ def _try_forward(ch: Chain, angle: float, distance: float) -> Family | None:
             for i, v in _mean_direction(ch, (0, 1)).items():
                 h[i] = v
             devs.append(par12)
+        if position is None and ch.revolute[0] and ch.revolute[1] and ch.revolute[2]:
+            position = ik_fast.POS_SEARCH  # a general 3R positioning arm: the search over q1
+        if position == ik_fast.POS_SEARCH:
+            ideal = replace(ch, h=h, r=r)
+            return Family("spherical_wrist_general", (3, 1, 2), False, 8, ch, ideal, deviation=max(devs),
+                          kernel="spherical_wrist_search", position=position, centre=c)
         if position is not None:
             name, subs = _WRIST_POSITIONS[position]
             ideal = replace(ch, h=h, r=r)

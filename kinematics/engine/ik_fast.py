@@ -317,3 +317,66 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     q1, f1 = sp1(sub(y, r0), sub(p, r0), h0)
                     n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
         count[t] = n
+
+
+#: the position part of a spherical wrist on a general 3R arm: a search over q1
+POS_SEARCH = 4
+#: samples of q1 over a turn (a sign change between two samples is bracketed and refined)
+SEARCH_SAMPLES = 1440
+
+
+@nb.njit(**_JIT)
+def _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b):
+    """Residual of branch b (0, 1) of the position part at q1: the height along axis 2 of the wrist
+    centre turned by q3 (subproblem 3: its distance to axis 2's point right) minus the target's."""
+    pp = add(r0, rot(h0, -q1, sub(p, r0)))
+    ta, tb, n, f = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
+    q3 = ta if (b == 0 or n == 1) else tb
+    x = add(r2, rot(h2, q3, sub(c, r2)))
+    return dot(h1, sub(x, r1)) - dot(h1, sub(pp, r1)), q3, pp
+
+
+@nb.njit(**_JIT)
+def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
+    """Candidates of a spherical wrist (axes 4, 5, 6 meet at c) on a general 3R positioning arm.
+
+    ``E1 E2 E3 c = p``: for each q1 the point ``p' = E1⁻¹ p`` must be reached by joints 2, 3.
+    Joint 2 keeps the distance to its axis point ``r2`` (subproblem 3 gives the two q3) and the height
+    along its axis, so each branch has the residual ``h2·(E3 c − r2) − h2·(p' − r2)`` in q1 (beyond the
+    reach of subproblem 3 its least-squares q3 continues it). ``samples`` values of q1 over a turn
+    bracket every sign change; bisection refines each to machine precision, then subproblem 1 gives
+    q2 and the wrist part q4, q5, q6. A root of even multiplicity (a tangency) or two roots within one
+    sample step would be missed; a root in the least-squares continuation is not a solution, and the
+    caller's FK check drops it."""
+    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
+    r0, r1, r2 = v(r_[0]), v(r_[1]), v(r_[2])
+    c = v(c_)
+    u = perpendicular(h5)
+    step = 2.0 * math.pi / samples
+    for t in range(G.shape[0]):
+        g = G[t]
+        p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
+        n = 0
+        for b in range(2):
+            a = -math.pi
+            fa, _, _ = _branch(a, p, c, r0, r1, r2, h0, h1, h2, b)
+            for s in range(1, samples + 1):
+                bq = -math.pi + s * step
+                fb, _, _ = _branch(bq, p, c, r0, r1, r2, h0, h1, h2, b)
+                if fa == 0.0 or (fa < 0.0) != (fb < 0.0):
+                    lo, hi, flo = a, bq, fa
+                    for _ in range(60):
+                        mid = 0.5 * (lo + hi)
+                        fm, _, _ = _branch(mid, p, c, r0, r1, r2, h0, h1, h2, b)
+                        if (fm < 0.0) == (flo < 0.0) and fm != 0.0:
+                            lo, flo = mid, fm
+                        else:
+                            hi = mid
+                    q1 = 0.5 * (lo + hi)
+                    _, q3, pp = _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b)
+                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
+                    if n + 2 <= Q.shape[1]:
+                        n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, False, f2, h0, h1, h2, h3, h4, h5, u)
+                a, fa = bq, fb
+        count[t] = n

@@ -316,3 +316,33 @@ def test_base_and_tool_on_the_closed_form(catalogue):
 def test_position_mode_of_a_six_joint_chain_is_refused(catalogue):
     with pytest.raises(Exception, match="infinitely many"):
         all_solutions(catalogue.get("ur5"), "tool0", np.eye(4)[None], mode="position")
+
+
+def _wrist_on_a_general_arm():
+    """A spherical wrist on a 3R arm from a random DH table (no two of its axes parallel or meeting)."""
+    rng = np.random.default_rng(8)
+    rows = [{"type": "revolute", "a": float(rng.uniform(0.1, 0.4)), "alpha": float(rng.uniform(0.4, 1.2)),
+             "d": float(rng.uniform(0.05, 0.3)), "theta": 0.0, "limits": [-3.1, 3.1]} for _ in range(3)]
+    rows += [{"type": "revolute", "a": 0.0, "alpha": -np.pi / 2, "d": 0.0, "theta": 0.0, "limits": [-3.1, 3.1]},
+             {"type": "revolute", "a": 0.0, "alpha": np.pi / 2, "d": 0.0, "theta": 0.0, "limits": [-3.1, 3.1]},
+             {"type": "revolute", "a": 0.0, "alpha": 0.0, "d": 0.1, "theta": 0.0, "limits": [-3.1, 3.1]}]
+    return model_from_table(table_from_dict({"name": "wrist_general", "convention": "standard", "joints": rows}))
+
+
+def test_a_spherical_wrist_on_a_general_arm_by_the_bracketing_search():
+    model = _wrist_on_a_general_arm()
+    link = model.leaf_links[0]
+    fam = detect(reduce_chain(model, link))
+    assert (fam.name, fam.closed_form, fam.max_solutions) == ("spherical_wrist_general", False, 8)
+    Q, T = _targets(model, link, 60, seed=6)
+    sol = all_solutions(model, link, T, limits="ignore")
+    assert sol.method == "search" and sol.count.max() <= 8
+    cols = np.arange(6)
+    for n in range(len(Q)):
+        assert _contains(sol, n, Q[n], cols)
+    # the multistart finds nothing more
+    dense = all_solutions(model, link, T[:4], limits="ignore", method="numeric", search_seeds=2048)
+    for n in range(4):
+        for q in dense.q[n, :dense.count[n]]:
+            assert _contains(sol, n, q, cols)
+    _pinocchio_exact(model, link, sol, T[:5])
