@@ -6,6 +6,7 @@ pages are FastAPI's own HTML pointed at them (no CDN, no Google fonts).
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import fastapi_offline
@@ -23,17 +24,18 @@ def install_docs(app: FastAPI, docs_url: str = "/docs", redoc_url: str = "/redoc
     app.mount(DOCS_ASSETS_URL, StaticFiles(directory=DOCS_ASSETS_DIR), name="docs-assets")
     oauth2_url = f"{docs_url}/oauth2-redirect"
 
+    def page(request: Request, render, name: str, **assets: str) -> HTMLResponse:
+        """``render`` (FastAPI's page of ``name``) with the document and every asset under the root path."""
+        root = request.scope.get("root_path", "")
+        urls = {key: f"{root}{DOCS_ASSETS_URL}/{file}" for key, file in assets.items()}
+        return render(openapi_url=f"{root}{app.openapi_url}", title=f"{app.title} - {name}", **urls)
+
     @app.get(docs_url, include_in_schema=False)
     async def swagger_ui(request: Request) -> HTMLResponse:
-        root = request.scope.get("root_path", "")
-        return get_swagger_ui_html(
-            openapi_url=f"{root}{app.openapi_url}", title=f"{app.title} - Swagger UI",
-            oauth2_redirect_url=f"{root}{oauth2_url}",
-            swagger_js_url=f"{root}{DOCS_ASSETS_URL}/swagger-ui-bundle.js",
-            swagger_css_url=f"{root}{DOCS_ASSETS_URL}/swagger-ui.css",
-            swagger_favicon_url=f"{root}{DOCS_ASSETS_URL}/favicon.png",
-            swagger_ui_parameters=app.swagger_ui_parameters,
-        )
+        return page(request, partial(get_swagger_ui_html, swagger_ui_parameters=app.swagger_ui_parameters,
+                                     oauth2_redirect_url=f"{request.scope.get('root_path', '')}{oauth2_url}"),
+                    "Swagger UI", swagger_js_url="swagger-ui-bundle.js", swagger_css_url="swagger-ui.css",
+                    swagger_favicon_url="favicon.png")
 
     @app.get(oauth2_url, include_in_schema=False)
     async def swagger_ui_redirect() -> HTMLResponse:
@@ -41,9 +43,5 @@ def install_docs(app: FastAPI, docs_url: str = "/docs", redoc_url: str = "/redoc
 
     @app.get(redoc_url, include_in_schema=False)
     async def redoc(request: Request) -> HTMLResponse:
-        root = request.scope.get("root_path", "")
-        return get_redoc_html(
-            openapi_url=f"{root}{app.openapi_url}", title=f"{app.title} - ReDoc",
-            redoc_js_url=f"{root}{DOCS_ASSETS_URL}/redoc.standalone.js",
-            redoc_favicon_url=f"{root}{DOCS_ASSETS_URL}/favicon.png", with_google_fonts=False,
-        )
+        return page(request, partial(get_redoc_html, with_google_fonts=False), "ReDoc",
+                    redoc_js_url="redoc.standalone.js", redoc_favicon_url="favicon.png")

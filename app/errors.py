@@ -27,6 +27,7 @@ from kinematics.errors import (
     AxesError,
     BasePoseError,
     BudgetError,
+    CalibrationError,
     CancelledError,
     ConfigurationNormError,
     DHError,
@@ -94,6 +95,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (LockedJointError, 422, "invalid-locked-joint", "Invalid locked joint"),
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (PoseError, 422, "invalid-pose", "Invalid pose"),
+    (CalibrationError, 422, "invalid-calibration-data", "Measurements a calibration cannot use"),
     (ReferenceUnavailableError, 422, "reference-unavailable", "Pinocchio cannot check this model"),
     (KinematicsError, 422, "kinematics-error", "Invalid request"),
 )

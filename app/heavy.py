@@ -8,7 +8,7 @@ loop or on the default thread pool, which heavy work does not use, and the threa
 pool run at a lower scheduling priority (``KIN_HEAVY_NICE``) so that the CPU goes first to the
 threads that answer light requests.
 
-Each heavy call gets a :class:`kinematics.api.Cancellation` with the time budget
+Each heavy call gets a :class:`kinematics.usecases.Cancellation` with the time budget
 ``KIN_REQUEST_TIMEOUT`` (counted from when the call is queued). The library checks it between
 pieces of the work (``kinematics.engine.cancel``); while the work runs, the event loop polls the
 connection every :data:`POLL_SECONDS` and cancels the token when the client has disconnected, so
@@ -32,6 +32,8 @@ from fastapi import Request
 
 from kinematics import api
 from kinematics.errors import TimeBudgetError
+
+from . import metrics
 
 log = logging.getLogger("app.heavy")
 
@@ -69,7 +71,7 @@ def heavy_pool(jobs: int, nice: int) -> ThreadPoolExecutor:
 
 def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> Any:
     state["started"] = True
-    with api.cancellable(token):
+    with metrics.HEAVY_RUNNING.track_inprogress(), api.cancellable(token):
         token.check()  # cancelled or out of time while it waited for a thread
         return fn(*args)
 
@@ -183,6 +185,42 @@ def _decoder():
             pool = _decoders[os.getpid()] = ProcessPoolExecutor(
                 max_workers=1, mp_context=multiprocessing.get_context("spawn"), initializer=_quiet_child)
         return pool
+
+
+#: the decoder process's first job, a batch of this many IK targets (~260 KB): its first real body
+#: then does not pay for the first large transfer and decode of a fresh process
+_WARM_TARGETS = 1000
+
+
+def _warm_body() -> bytes:
+    import json
+
+    pose = [[1.0, 0.0, 0.0, 0.1], [0.0, 1.0, 0.0, 0.2], [0.0, 0.0, 1.0, 0.3], [0.0, 0.0, 0.0, 1.0]]
+    return json.dumps({"target": [pose] * _WARM_TARGETS, "link": "tool0"}).encode()
+
+
+def _warm_decoder(body: bytes) -> int:
+    """In the decoder process, its first job: decode ``body`` (the imports, the first large decode),
+    then move everything alive to the cyclic collector's permanent generation (``gc.freeze()``,
+    as each worker does: :func:`configure_process`): else the first real body's decode met a full
+    collection of the fresh heap (~0.2 s on a busy machine). Its process id."""
+    import gc
+
+    decode_json("IKRequest", body)
+    gc.collect()
+    gc.freeze()
+    return os.getpid()
+
+
+def start_decoder(settings):
+    """Start the worker's decoder process now (with the server), not on the first large body:
+    spawning it and importing the schemas there took about 1.4 s, which the first request over
+    ``KIN_DECODE_PROCESS_BYTES`` paid. Its first job is a large body, sent and answered the way a
+    request's is. A future of that job (the lifespan waits for it, so that a server that answers
+    is warm); None when the decoder is switched off (``0``)."""
+    if not settings.decode_process_bytes:
+        return None
+    return _decoder().submit(_warm_decoder, _warm_body())
 
 
 def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:

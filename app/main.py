@@ -8,6 +8,7 @@ skipped, so a feature can add its router by adding its name.
 
 from __future__ import annotations
 
+import asyncio
 import importlib
 import logging
 from contextlib import asynccontextmanager
@@ -23,7 +24,7 @@ from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
 from .errors import install_error_handlers
-from .heavy import configure_process
+from .heavy import configure_process, start_decoder
 from .middleware import BodySizeLimit, RequestContext
 from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
@@ -33,7 +34,8 @@ from .settings import Settings
 log = logging.getLogger("app")
 
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
-ROUTERS = ("health", "metrics", "models", "kinematics", "ik", "ik_all", "velocity", "workspace", "symbolic", "viewer")
+ROUTERS = ("health", "metrics", "models", "kinematics", "ik", "ik_all", "velocity", "workspace", "symbolic",
+           "calibration", "viewer")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
 DESCRIPTION = """Forward kinematics, Jacobians and inverse kinematics of robots (URDF or Denavit-Hartenberg),
 computed with product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).
@@ -192,12 +194,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         data_dir = settings.resolved_data_dir()
+        decoder = start_decoder(settings)  # the large-body decoder process starts while the rest warms up
         api.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
         configure_process(settings)  # heavy work off the loop at a lower priority (app.heavy)
         registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
         loaded = registry.load_stored()
         app.state.registry = registry
         log.info("registry: %d bundled models, %d stored models in %s", len(registry.catalogue.ids()), loaded, data_dir)
+        if decoder is not None:
+            try:
+                await asyncio.wrap_future(decoder)
+            except Exception as exc:  # noqa: BLE001 - large bodies are then decoded here (app.heavy)
+                log.warning("the decoder process did not start (%s): large bodies are decoded in the worker", exc)
         yield
 
     app = FastAPI(

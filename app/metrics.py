@@ -29,12 +29,14 @@ MODELS_COMPILED = Counter("kin_models_compiled", "models compiled to their produ
                           "kernels' input; once per model and process, the start-up warm-up's included)")
 MODELS_CACHED = Gauge("kin_models_cached", "compiled models held in memory (summed over live workers)",
                       multiprocess_mode="livesum")
+HEAVY_RUNNING = Gauge("kin_heavy_jobs_running", "heavy jobs computing now (IK, large batches, the decoding of large "
+                      "JSON bodies: app.heavy), summed over live workers", multiprocess_mode="livesum")
 
 _compiled_seen = 0
 
 
 def record_models() -> None:
-    """Bring the model counts up to date with the library's (:func:`kinematics.api.compiled_models`;
+    """Bring the model counts up to date with the library's (:func:`kinematics.usecases.compiled_models`;
     called after each request and before each exposition: the app observes, the library compiles)."""
     global _compiled_seen
     from kinematics import api

@@ -29,19 +29,25 @@ Layout (``<data_dir>/models/``), one content file per model plus a small JSON si
 
 Writes are atomic (temporary file in the same directory, fsync, ``os.replace``); the
 content file is written last and deleted first, so its presence defines the model.
-A stored file that is unreadable, or whose content does not hash to its name, is skipped
-with a logged warning. Bundled models are read-only.
+A stored file that is unreadable, not a regular file, or whose content does not hash to its
+name, is skipped with a logged warning (a sidecar's fields of the wrong type are ignored). A
+write the directory refuses (full, read-only) is a 507 problem naming the cause
+(:func:`storage_problem`), and leaves no temporary file or orphan sidecar. Bundled models are
+read-only.
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import logging
 import os
 import re
+import stat as stat_kind
 import tempfile
 import threading
+import time
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -63,6 +69,8 @@ log = logging.getLogger("app.registry")
 class _KnownUnreadable(ValueError):
     """A stored file already found unreadable (and logged) in its current version."""
 
+#: a temporary file older than this at start-up is a write that was killed half-way (removed)
+STALE_TEMPORARY_SECONDS = 3600.0
 #: what a model id in a path may look like (no path separators, no "..")
 MODEL_ID_PATTERN = r"^[A-Za-z0-9_.-]{1,128}$"
 _MODEL_ID = re.compile(MODEL_ID_PATTERN)
@@ -84,7 +92,7 @@ DH_CANONICAL_ANGLES = "radians"
 @dataclass(frozen=True)
 class Description:
     """A kind of model description stored as canonical JSON: ``<prefix><16 hex><suffix>``; the
-    model's ``source`` is ``kind`` (:func:`kinematics.api.model_from_description` reads it)."""
+    model's ``source`` is ``kind`` (:func:`kinematics.usecases.model_from_description` reads it)."""
 
     kind: str
     prefix: str
@@ -161,11 +169,18 @@ def upload_id(kind: str, data: bytes, args: dict[str, str] | None, entry: str | 
     return UPLOAD_PREFIXES[kind] + hashlib.sha256(key).hexdigest()[:ID_HASH_DIGITS]
 
 
+def _text(value: Any) -> str | None:
+    """A sidecar's string field, or None when damaged (of another type)."""
+    return value if isinstance(value, str) else None
+
+
 def _shown_upload(upload: dict[str, Any] | None) -> dict[str, Any] | None:
     """What the model info shows of how a model was sent."""
     if upload is None:
         return None
-    return {"container": upload.get("container"), "entry": upload.get("entry"), "args": upload.get("args") or {}}
+    args = upload.get("args")
+    return {"container": _text(upload.get("container")), "entry": _text(upload.get("entry")),
+            "args": {str(k): str(v) for k, v in args.items()} if isinstance(args, dict) else {}}
 
 
 def canonical_json(obj: Any) -> bytes:
@@ -185,6 +200,26 @@ def description_id(kind: str, canonical: bytes) -> str:
 
 def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+#: errno of a full disk (or quota): 507 Insufficient Storage; any other write failure is a 507 too,
+#: titled by its cause (a read-only data directory, permissions)
+_FULL = {errno.ENOSPC, errno.EDQUOT}
+
+
+def storage_problem(model_id: str, action: str, exc: OSError) -> ProblemError:
+    """The 507 ``storage-error`` problem of a write to the data directory that failed (``action``:
+    "stored", "renamed", "deleted"), naming the cause; logged as an error."""
+    cause = exc.strerror or str(exc)
+    log.error("cannot write model %s to the data directory (%s): %s", model_id, action, cause)
+    if exc.errno in _FULL:
+        title = "Insufficient storage"
+    elif exc.errno == errno.EROFS:
+        title = "Data directory is read-only"
+    else:
+        title = "Data directory is not writable"
+    return ProblemError(507, f"model {model_id} could not be {action}: {cause} (the data directory does not take "
+                        "writes; models already stored are still served)", slug="storage-error", title=title)
 
 
 def _file_key(st: os.stat_result) -> tuple:
@@ -233,7 +268,9 @@ class Registry:
 
     # ------------------------------------------------------------------ start-up
     def load_stored(self) -> int:
-        """Load every stored model (start-up); unreadable or foreign files are skipped with a warning."""
+        """Load every stored model (start-up); unreadable or foreign files are skipped with a warning.
+        Temporary files older than :data:`STALE_TEMPORARY_SECONDS` (a write killed half-way) are removed."""
+        self._remove_stale_temporaries()
         count = 0
         for model_id in self._stored_ids():
             try:
@@ -244,6 +281,23 @@ class Registry:
             except (OSError, ValueError, KinematicsError) as exc:
                 log.warning("skipping stored model %s: %s", model_id, exc)
         return count
+
+    def _remove_stale_temporaries(self) -> None:
+        """Remove the ``.tmp-`` files of writes killed half-way (never listed: only their space is at
+        stake); a recent one may be another process's write in progress and stays."""
+        cutoff = time.time() - STALE_TEMPORARY_SECONDS
+        try:
+            entries = list(os.scandir(self.models_dir))
+        except OSError:
+            return
+        for entry in entries:
+            try:
+                if entry.name.startswith(".tmp-") and entry.is_file(follow_symlinks=False) \
+                        and entry.stat(follow_symlinks=False).st_mtime < cutoff:
+                    os.unlink(entry.path)
+                    log.info("removed %s, a temporary file of a write that did not finish", entry.name)
+            except OSError:  # gone meanwhile, or a read-only directory
+                pass
 
     # ------------------------------------------------------------------ lookups
     def is_bundled(self, model_id: str) -> bool:
@@ -365,14 +419,23 @@ class Registry:
 
     def _store(self, model_id: str, meta: dict[str, Any], content: bytes) -> None:
         """Sidecar, then content, each atomically. A disk that is full or read-only answers a 507
-        problem (nothing partial is left: a content file exists whole or not at all)."""
+        problem (nothing partial is left: a content file exists whole or not at all, and a sidecar
+        written for a content file that could not be is removed again)."""
+        meta_path = self._meta_path(model_id)
+        had_meta = meta_path.exists()
         try:
-            atomic_write(self._meta_path(model_id), canonical_json(meta))
-            atomic_write(self._content_path(model_id), content)
+            atomic_write(meta_path, canonical_json(meta))
+            try:
+                atomic_write(self._content_path(model_id), content)
+            except OSError:
+                if not had_meta and not self._content_path(model_id).exists():  # not another writer's
+                    try:
+                        os.unlink(meta_path)
+                    except OSError:
+                        pass
+                raise
         except OSError as exc:
-            log.error("cannot store model %s in %s: %s", model_id, self.models_dir, exc)
-            raise ProblemError(507, f"model {model_id} could not be stored: {exc.strerror or exc}",
-                               slug="storage-error", title="Insufficient storage") from None
+            raise storage_problem(model_id, "stored", exc) from None
 
     def rename(self, model_id: str, name: str) -> ModelRecord:
         """Give a stored model a new display name (its sidecar is rewritten atomically; the id, a
@@ -393,9 +456,7 @@ class Registry:
         try:
             atomic_write(self._meta_path(model_id), canonical_json(meta))
         except OSError as exc:
-            log.error("cannot store the sidecar of %s in %s: %s", model_id, self.models_dir, exc)
-            raise ProblemError(507, f"model {model_id} could not be renamed: {exc.strerror or exc}",
-                               slug="storage-error", title="Insufficient storage") from None
+            raise storage_problem(model_id, "renamed", exc) from None
 
     def _record_key(self, model_id: str, content: os.stat_result) -> tuple:
         try:
@@ -415,9 +476,11 @@ class Registry:
             os.unlink(self._content_path(model_id))
         except FileNotFoundError:
             raise UnknownModelError(f"unknown model {model_id!r}") from None
+        except OSError as exc:  # a read-only data directory: the model stays, and says so
+            raise storage_problem(model_id, "deleted", exc) from None
         try:
             os.unlink(self._meta_path(model_id))
-        except FileNotFoundError:
+        except OSError:  # gone, or not removable: an orphan sidecar is never listed
             pass
 
     # ------------------------------------------------------------------ files
@@ -459,6 +522,8 @@ class Registry:
         if known_bad is not None and known_bad[0] == key:  # same bad file: refused again, not re-read
             raise _KnownUnreadable(known_bad[1])
         try:
+            if not stat_kind.S_ISREG(st.st_mode):  # a directory, a FIFO (reading it would block), a device
+                raise ValueError(f"{path.name}: not a regular file")
             return self._read_stored(model_id, path, st, key)
         except ValueError as exc:
             with self._lock:
@@ -468,7 +533,8 @@ class Registry:
     def _read_stored(self, model_id: str, path: Path, st: os.stat_result, key) -> ModelRecord:
         data = path.read_bytes()
         meta = self._read_meta(model_id)
-        created = meta.get("created") or datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")
+        created = meta.get("created") if isinstance(meta.get("created"), str) and meta.get("created") else \
+            datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")
         table = description = upload = None
         if _CONVERTED_ID.match(model_id):
             upload = meta.get("upload")
@@ -516,7 +582,10 @@ class Registry:
 
     def _read_meta(self, model_id: str) -> dict[str, Any]:
         try:
-            meta = json.loads(self._meta_path(model_id).read_bytes())
+            path = self._meta_path(model_id)
+            if not stat_kind.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the read
+                raise ValueError(f"{path.name}: not a regular file")
+            meta = json.loads(path.read_bytes())
             return meta if isinstance(meta, dict) else {}
         except FileNotFoundError:
             return {}

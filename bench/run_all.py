@@ -1,8 +1,9 @@
 """Run every benchmark and print markdown tables (``python -m bench.run_all``, ``make bench``).
 
-Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,ik-all,load``
+Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,ik-all,load,calibration``
 (default: all but ``ik``, which needs the baselines of the ``bench`` extra and takes minutes, and
-``logs`` and ``load``; ``load`` writes ``RESULTS_LOAD.md``),
+``logs``, ``load`` and ``single``; ``load`` writes ``RESULTS_LOAD.md``, ``single`` (one configuration
+at a time, with the spread over repeated runs) ``RESULTS_SINGLE.md``),
 ``--output bench/RESULTS.md`` (also write the tables there, with the date and the command; the
 ``ik`` suite's tables go to their own file beside it, ``RESULTS_IK.md``, so that running one
 alone never overwrites the other's; ``ik-all``, every IK solution against EAIK and IK-Geo (the
@@ -24,12 +25,13 @@ import time
 
 from .common import Report, machine_info
 
-SUITES = ("kernels", "scaling", "service", "ik", "ik-all", "logs", "floating", "load")
+SUITES = ("kernels", "scaling", "service", "ik", "ik-all", "logs", "floating", "load", "calibration", "single")
 #: the suites run when --only is not given
 DEFAULT_SUITES = ("kernels", "scaling", "service")
 #: suites whose tables are written to their own file, beside --output (not into it)
 SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md", "floating": "RESULTS_FLOATING.md",
-                   "load": "RESULTS_LOAD.md", "ik-all": "RESULTS_IK_ALL.md"}
+                   "load": "RESULTS_LOAD.md", "calibration": "RESULTS_CALIBRATION.md",
+                   "single": "RESULTS_SINGLE.md", "ik-all": "RESULTS_IK_ALL.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 

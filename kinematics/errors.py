@@ -71,7 +71,7 @@ class BasePoseError(PoseError):
 
 
 class BudgetError(KinematicsError):
-    """A request over one of the caller's budgets (:class:`kinematics.api.Budget`).
+    """A request over one of the caller's budgets (:class:`kinematics.usecases.Budget`).
 
     ``budget`` names which (``batch``: configurations; ``verify``: configurations compared
     with the reference; ``result``: numbers in the answer), ``field`` the part of the request
@@ -87,12 +87,12 @@ class BudgetError(KinematicsError):
 
 class CancelledError(KinematicsError):
     """A computation stopped before its end because its caller cancelled it (a client that went
-    away; :class:`kinematics.api.Cancellation`)."""
+    away; :class:`kinematics.usecases.Cancellation`)."""
 
 
 class TimeBudgetError(CancelledError):
     """A computation stopped because it took longer than its time budget: ``limit`` seconds, from
-    the setting named by ``setting`` (:class:`kinematics.api.Cancellation`)."""
+    the setting named by ``setting`` (:class:`kinematics.usecases.Cancellation`)."""
 
     def __init__(self, message: str, *, setting: str, limit: float):
         super().__init__(message)
@@ -165,6 +165,16 @@ class MJCFError(URDFError):
 
 class DescriptionFormatError(URDFError):
     """A body that is none of the descriptions the product reads (URDF, xacro, MJCF, zip or gzip archive)."""
+
+
+class CalibrationError(KinematicsError):
+    """Measurements a calibration cannot use: too few for the parameters they should determine,
+    non-finite values, a configuration of the wrong length, a set that determines nothing (all
+    configurations equal, collinear points); ``field`` names the part of the request."""
+
+    def __init__(self, message: str, *, field: str = "measurements"):
+        super().__init__(message)
+        self.field = field
 
 
 def did_you_mean(name: object, valid, what: str = "names", limit: int = 10) -> str:

@@ -22,6 +22,12 @@ def catalogue():
     return default_catalogue()
 
 
+@pytest.fixture(scope="session")
+def ur5(catalogue):
+    """The UR5 of the catalogue: the arm most tests compute with."""
+    return catalogue.get("ur5")
+
+
 # ---------------------------------------------------------------------- REST API (app/)
 @pytest.fixture
 def api_data_dir(tmp_path) -> Path:

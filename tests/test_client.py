@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinematics import api, compile_model, default_catalogue
+from kinematics import api, compile_model
 from kinematics.client import Client, ServiceError
 from tests.live import LiveServer
 from tests.paths import FIXTURES
@@ -18,11 +18,6 @@ def server(tmp_path_factory):
     data = tmp_path_factory.mktemp("client-data")
     with LiveServer(data, data.parent / "client-uvicorn.log", env={"KIN_API_KEY": KEY}) as live:
         yield live
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 def test_fk_and_jacobian_equal_the_library(server, ur5):

@@ -19,11 +19,6 @@ N_PER_FILE = (7000, 5000, 9001)
 
 
 @pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
-
-
-@pytest.fixture(scope="module")
 def dataset(tmp_path_factory, ur5):
     root = tmp_path_factory.mktemp("dask-data")
     (root / "log").mkdir()

@@ -44,11 +44,12 @@ def test_the_site_builds_strict_and_offline(site):
 
 def test_the_api_reference_is_generated_from_the_docstrings(site):
     api = (site / "reference" / "api.html").read_text()
-    for name in ("kinematics.api.fk", "kinematics.api.jacobian", "kinematics.api.ik"):
+    for name in ("kinematics.usecases.fk.fk", "kinematics.usecases.jacobian.jacobian", "kinematics.usecases.ik.ik",
+                 "kinematics.api.load_model"):
         assert f'id="{name}"' in api, name
     assert "Poses <code>T_world_link</code>" in api  # the docstring of fk, roles and literals as Markdown
     package = (site / "reference" / "kinematics.html").read_text()
-    assert 'id="kinematics.fk"' in package and 'id="kinematics.RobotModel"' in package  # the names of __all__
+    assert 'id="kinematics.compile_model"' in package and 'id="kinematics.RobotModel"' in package  # the names of __all__
     assert "<code>" in package and "&gt;&gt;&gt;" in package and "::" not in re.sub(r"<[^>]+>", "", package)
     client = (site / "reference" / "client.html").read_text()
     assert 'id="kinematics.client.Client"' in client

@@ -142,8 +142,20 @@ def test_example_08_task_vectors_and_analytic_jacobians():
     assert "refused: RepresentationSingularityError - the zyz representation is singular at configuration 0" in out
 
 
-def test_example_09_ik_all():
-    out = run_example("09_ik_all.py")
+def test_example_09_calibration():
+    out = run_example("09_calibration.py")
+    chosen, random = map(float, re.search(r"log det ([0-9.]+) \(random ([0-9.]+)\)", out).groups())
+    assert chosen > random
+    assert "identifiable: 27 (4R + 3 = 27)" in out and "absorbed by the base frame" in out
+    before, after = map(float, re.search(r"RMS before ([0-9.]+) mm, after ([0-9.]+) um", out).groups())
+    assert before > 2 and after < 40  # millimetres before, the 35 um of the noise after
+    nominal, calibrated = map(float, re.search(r"nominal model ([0-9.]+) mm off, calibrated ([0-9.]+) um off",
+                                                out).groups())
+    assert nominal > 2 and calibrated < 30
+
+
+def test_example_10_ik_all():
+    out = run_example("10_ik_all.py")
     assert "ur5 family: three_parallel" in out
     assert "8 solutions (analytic); first = seed: True" in out
     assert deviation(out, "worst Pinocchio deviation:") < 1e-9

@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 import kinematics
-from kinematics.api import reference_name
+from kinematics.usecases import reference_name
 
 from ..deps import RegistryDep
 from ..schemas import Health

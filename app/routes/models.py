@@ -10,7 +10,7 @@ from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import Response as PlainResponse
 from pydantic import StringConstraints
 
-from kinematics import api
+from kinematics import usecases
 from kinematics.io.archive import ArchiveLimits
 from kinematics.io.xacro import SandboxLimits
 from kinematics.io.dh_table import table_to_dict
@@ -331,7 +331,7 @@ def get_screws(model_id: ModelId, registry: RegistryDep) -> dict:
     `T_world_L(q) = exp([S_1] q_1) ... exp([S_k] q_k) M_L` over the moving joints on the path to L.
     """
     rec = registry.get(model_id)
-    poe = api.screws(rec.model)
+    poe = usecases.screws(rec.model)
     joints = []
     for j, name in enumerate(poe.joint_names):
         joints.append({
@@ -349,4 +349,4 @@ def get_dh(model_id: ModelId, registry: RegistryDep,
            convention: Annotated[Literal["standard", "modified"], Query()] = "standard") -> dict:
     """The model as a DH table, when it is a serial chain that has one (422 otherwise)."""
     rec = registry.get(model_id)
-    return table_to_dict(api.dh_form(rec.model, tip=tip, convention=convention))
+    return table_to_dict(usecases.dh_form(rec.model, tip=tip, convention=convention))

@@ -92,6 +92,7 @@ def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry,
         "bounding_box": {"min": ws.bounding_box[0], "max": ws.bounding_box[1]},
         "reach": ws.reach, "volume": ws.volume,
         "convergence": [{"samples": n, key: v} for n, v in ws.convergence],
+        "converged": ws.converged, "advice": ws.advice,
         "voxel": ws.voxel, "cell": ws.cell, "occupied_voxels": int(ws.voxel_centers.shape[0]),
         "manipulability": {"min": float(M.min()), "mean": float(M.mean()), "max": float(M.max())},
     }

@@ -4,12 +4,13 @@
 base of every request on a model's frames (it declares the fields of :class:`kinematics.Query`
 once and builds the query); :mod:`~app.schemas.models`, :mod:`~app.schemas.fk`,
 :mod:`~app.schemas.jacobian`, :mod:`~app.schemas.ik`, :mod:`~app.schemas.ik_all`, :mod:`~app.schemas.velocity`,
-:mod:`~app.schemas.workspace` and :mod:`~app.schemas.symbolic` the operations'. Every name is
+:mod:`~app.schemas.workspace`, :mod:`~app.schemas.symbolic` and :mod:`~app.schemas.calibration` the operations'. Every name is
 importable from ``app.schemas`` itself.
 """
 
 from pydantic import BaseModel
 
+from .calibration import *  # noqa: F403
 from .common import *  # noqa: F403
 from .common import (_BASE_DESC, _FLOATING_BASE_DESC, _LIMITS_DESC, _NORMALIZE_DESC, _POINT_DESC,  # noqa: F401
                      _Q_DESC, _REPRESENTATION_DESC, _TOOL_DESC)
@@ -30,8 +31,9 @@ from .models import AxesDescriptionIn, DHTable, PoEDescriptionIn, URDFUpload
 from .common import Problem
 from .velocity import VelocityRequest
 from .workspace import WorkspaceRequest
+from .calibration import CalibrationPosesRequest, CalibrationRequest
 
 #: the request schemas whose JSON Schema the OpenAPI document lists (bodies some handlers read themselves)
 REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, IKPathRequest, VelocityRequest,
                                                 WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
-                                                AxesDescriptionIn, Problem)
+                                                AxesDescriptionIn, CalibrationRequest, CalibrationPosesRequest, Problem)

@@ -52,6 +52,9 @@ class WorkspaceResponse(BaseModel):
     volume: float = Field(description="occupancy-grid estimate, m³ (0 for a planar workspace)")
     area: float | None = Field(default=None, description="planar workspaces: the area, m²")
     convergence: list[ConvergenceStep] = Field(description="the estimate over the first N/4, N/2 and N samples")
+    converged: bool = Field(description="the samples are dense for the voxel and the estimate settled from N/2 to N")
+    advice: str | None = Field(default=None, description="when not converged: why, and what to change (a larger "
+                                                         "voxel, more samples)")
     voxel: float = Field(description="the cell edge asked for or chosen, metres")
     cell: Vector = Field(description="the grid's cell edges along its axes (each <= voxel, so whole cells tile the "
                                      "bounding box; 0 along a flat axis)")

@@ -123,14 +123,9 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
                                        position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
                                        max_iterations=max_iterations, restarts=restarts, random_seed=random_seed,
                                        tool=tool)
-    poe = compile_model(model)
-    li = int(poe.link_indices([link])[0])
-    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
-    N = targets.shape[0]
-    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
-    if seeds is None:
-        seeds = middle_of_limits(model)
-    Q0 = np.ascontiguousarray(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.dof)))
+    poe, li, T_root, Q0 = _problem(model, link, targets, base, middle_of_limits(model) if seeds is None else seeds)
+    N = T_root.shape[0]
+    Q0 = np.ascontiguousarray(Q0)
     T_root = np.ascontiguousarray(T_root)
     Q, _, _, steps = poe.kernel.ik(
         Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous, model.angular,
@@ -205,6 +200,17 @@ def _errors(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
     return e
 
 
+def _problem(model: RobotModel, link: str, targets, base, seeds):
+    """``(compiled model, link index, T_root (N, 4, 4), Q0 (N, nq))`` of an IK request: the targets in the
+    root frame (``base`` taken off) and one (writable) copy of the seeds per target."""
+    compiled = compile_model(model)
+    li = int(compiled.link_indices([link])[0])
+    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
+    Q0 = np.array(np.broadcast_to(np.asarray(seeds, dtype=float), (targets.shape[0], model.nq)))
+    return compiled, li, T_root, Q0
+
+
 def tree_inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds: np.ndarray | None = None, *,
                             base: np.ndarray | None = None, mode: str = "pose",
                             position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
@@ -223,14 +229,8 @@ def tree_inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, s
     """
     from ..model.joint_values import limit_violations
 
-    eng = compile_model(model)
-    li = int(eng.link_indices([link])[0])
-    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
-    N = targets.shape[0]
-    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
-    if seeds is None:
-        seeds = _neutral_middles(model)
-    Q = np.array(np.broadcast_to(np.asarray(seeds, dtype=float), (N, model.nq)))
+    eng, li, T_root, Q = _problem(model, link, targets, base, _neutral_middles(model) if seeds is None else seeds)
+    N = T_root.shape[0]
     Q = _project(model, Q)
     position_only = mode == "position"
     rows = slice(0, 3) if position_only else slice(0, 6)

@@ -191,6 +191,13 @@ def _singular(k: int, rep: TaskRepresentation, why: str) -> RepresentationSingul
         "there, so dr/dq is undefined; choose another representation or configuration")
 
 
+def _refuse_singular(singular: np.ndarray, rep: TaskRepresentation, why: str) -> None:
+    """Refuse (:class:`RepresentationSingularityError`) the first configuration where ``singular`` (N,) holds."""
+    bad = np.flatnonzero(singular)
+    if bad.size:
+        raise _singular(int(bad[0]), rep, why)
+
+
 def _rates(R: np.ndarray, rotation: str, rep: TaskRepresentation, need: set[str]) -> dict[str, np.ndarray]:
     """Per orientation component, the row (N, 3) mapping the angular velocity to its rate."""
     tol = REPRESENTATION_SINGULARITY_TOLERANCE
@@ -199,9 +206,7 @@ def _rates(R: np.ndarray, rotation: str, rep: TaskRepresentation, need: set[str]
         a = matrix_to_rpy(R)
         p, y = a[:, 1], a[:, 2]
         cp, sp_, cy, sy = np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-        bad = np.flatnonzero(np.abs(cp) < tol)
-        if bad.size:
-            raise _singular(int(bad[0]), rep, "pitch at +-90 degrees, the gimbal lock")
+        _refuse_singular(np.abs(cp) < tol, rep, "pitch at +-90 degrees, the gimbal lock")
         # E = [[cy cp, -sy, 0], [sy cp, cy, 0], [-sp, 0, 1]] (columns roll, pitch, yaw); its inverse:
         z = np.zeros(N)
         roll = np.stack([cy / cp, sy / cp, z], axis=-1)
@@ -212,9 +217,7 @@ def _rates(R: np.ndarray, rotation: str, rep: TaskRepresentation, need: set[str]
         a = _zyz(R)
         f, t = a[:, 0], a[:, 1]
         cf, sf, ct, st = np.cos(f), np.sin(f), np.cos(t), np.sin(t)
-        bad = np.flatnonzero(np.abs(st) < tol)
-        if bad.size:
-            raise _singular(int(bad[0]), rep, "theta at 0 or 180 degrees: phi and psi turn about one axis")
+        _refuse_singular(np.abs(st) < tol, rep, "theta at 0 or 180 degrees: phi and psi turn about one axis")
         # E = [[0, -sf, cf st], [0, cf, sf st], [1, 0, ct]] (columns phi, theta, psi); its inverse:
         z = np.zeros(N)
         phi = np.stack([-cf * ct / st, -sf * ct / st, np.ones(N)], axis=-1)
@@ -224,16 +227,12 @@ def _rates(R: np.ndarray, rotation: str, rep: TaskRepresentation, need: set[str]
     if rotation == "quaternion":
         qv = matrix_to_quaternion(R)
         w, x, y, zq = qv[:, 0], qv[:, 1], qv[:, 2], qv[:, 3]
-        bad = np.flatnonzero(w < tol)
-        if bad.size:
-            raise _singular(int(bad[0]), rep, "a half turn, qw = 0, where the sign convention qw >= 0 flips")
+        _refuse_singular(w < tol, rep, "a half turn, qw = 0, where the sign convention qw >= 0 flips")
         return {"qw": 0.5 * np.stack([-x, -y, -zq], axis=-1), "qx": 0.5 * np.stack([w, zq, -y], axis=-1),
                 "qy": 0.5 * np.stack([-zq, w, x], axis=-1), "qz": 0.5 * np.stack([y, -x, w], axis=-1)}
     r = _rotvec(R)
     theta = np.linalg.norm(r, axis=-1)
-    bad = np.flatnonzero(np.pi - theta < tol)
-    if bad.size:
-        raise _singular(int(bad[0]), rep, "a half turn, theta = 180 degrees")
+    _refuse_singular(np.pi - theta < tol, rep, "a half turn, theta = 180 degrees")
     K = skew(r)
     small = theta < 1e-6
     th = np.where(small, 1.0, theta)

@@ -17,14 +17,23 @@ or a point. Extents below ``FLAT_TOLERANCE`` times the largest (or 1e-12 m) are 
 **Volume (area).** Occupancy on a grid aligned with the world axes (a planar cloud: with its
 plane, the world axes when the plane is a coordinate plane) anchored at the cloud's bounding
 box: each axis of extent ``e`` has an even number ``n = 2 ceil(e / 2h)`` of cells of size
-``e / n <= h`` (``h``: the ``voxel`` edge), so that whole cells tile the box. The occupied cells
-at size ``h`` overestimate the set by a layer along its boundary proportional to ``h``; the
-cells at ``2h`` (pairs of the same grid) by twice that layer, so the estimate is the
-Richardson extrapolation ``V = 2 V(h) - V(2h)`` (exact for a box, whose cells are all full; the
-boundary layer of a curved set cancels to first order). The default ``h`` makes the cells of
-the bounding box about ``N / SAMPLES_PER_CELL`` (so that an occupied cell holds samples). The
-same estimate over the first N/4, N/2 and N samples is the **convergence**: when the three
-agree, the sampling is dense enough for ``h``.
+``e / n <= h`` (``h``: the ``voxel`` edge), so that whole cells tile the box. Where the samples
+are **dense** for ``h`` (at least :data:`MIN_SAMPLES_PER_CELL` per occupied cell, and the cells
+at ``2h`` at most :data:`MAX_COARSE_RATIO` times the volume of those at ``h``), every cell the
+set touches holds a sample: the occupied cells at size ``h`` overestimate the set by a layer
+along its boundary proportional to ``h``, the cells at ``2h`` (pairs of the same grid) by twice
+that layer, so the estimate is the Richardson extrapolation ``V = 2 V(h) - V(2h)`` (exact for a
+box, whose cells are all full; the boundary layer of a curved set cancels to first order), and
+never less than the interior cells (occupied with all their face neighbours). Where they are
+**sparse** (a fine voxel: most samples alone in their cell, most cells between them empty), the
+extrapolation would subtract what the samples never reached and fall to nothing; the estimate
+is then the occupied volume ``V(h)`` itself, the most the samples show (below the set's volume,
+whose cells they have not all found), and the answer is not converged, with the advice to give
+a larger voxel or more samples. The default ``h`` makes the cells of the bounding box about
+``N / SAMPLES_PER_CELL`` (so that an occupied cell holds samples). The same estimate over the
+first N/4, N/2 and N samples is the **convergence**: when the samples are dense at N/2 and N and
+the two estimates agree within :data:`CONVERGED_TOLERANCE`, the workspace is ``converged``;
+otherwise ``advice`` says what to change.
 
 **Dexterity map.** Per occupied cell (size ``h``): its centre and the best manipulability of
 the samples in it.
@@ -54,6 +63,12 @@ from ..model.robot import RobotModel
 
 #: configurations drawn per pass (bounds the scratch memory)
 CHUNK = 65_536
+#: below this many samples per occupied cell the grid is sparse for its voxel (no extrapolation)
+MIN_SAMPLES_PER_CELL = 8
+#: the grid is sparse (or the set thinner than the voxel) when the cells at 2h exceed those at h by more
+MAX_COARSE_RATIO = 1.5
+#: converged: the estimates at N/2 and N differ by at most this fraction of the latter
+CONVERGED_TOLERANCE = 0.05
 #: samples when the caller names none
 DEFAULT_SAMPLES = 100_000
 #: the default voxel makes the cells of the bounding box about samples / this
@@ -80,6 +95,9 @@ class Workspace:
     coordinates); origin (3,): its corner. convergence: ``(samples, estimate)`` at N/4, N/2, N
     (volume, or area when planar). voxel_index (M, 3), voxel_centers (M, 3),
     voxel_manipulability (M,): the dexterity map (best manipulability per occupied cell).
+    converged: the samples are dense for the voxel and the estimate settled (module docstring);
+    advice: when not converged, what to change (None otherwise). occupied: ``V(h)``, the volume
+    (area) of the occupied cells.
     """
 
     link: str
@@ -101,6 +119,9 @@ class Workspace:
     voxel_manipulability: np.ndarray
     random_seed: int = 0
     convergence_curve: list[tuple[int, float]] = field(default_factory=list)  # the estimate from N/16 to N samples
+    converged: bool = False
+    advice: str | None = None
+    occupied: float = 0.0
 
     @property
     def samples(self) -> int:
@@ -242,6 +263,58 @@ def default_voxel(X: np.ndarray, dim: int) -> float:
     return float(np.prod(extent) / cells) ** (1.0 / dim)
 
 
+def _enclosed_from(cell_idx: np.ndarray, first: np.ndarray, grid: _Grid) -> np.ndarray:
+    """(M,) per occupied cell (``cell_idx`` (M, 3) in increasing linear order, ``first`` (M,) the
+    first sample in each), the number of samples after which it and its 2 dim face neighbours
+    are all occupied (int64 max: never; a cell on the grid's edge is never enclosed).
+
+    >>> g = _Grid(np.zeros(3), np.eye(3), np.array([4, 4, 4]), np.full(3, 0.25), 3)
+    >>> idx = np.array([(i, j, k) for i in range(4) for j in range(4) for k in range(4)])
+    >>> e = _enclosed_from(idx, np.arange(64), g)
+    >>> sorted(map(tuple, idx[e < 64].tolist()))[:2], int(np.count_nonzero(e < 64))
+    ([(1, 1, 1), (1, 1, 2)], 8)
+    """
+    sorted_keys = _linear(cell_idx, grid.counts)
+    never = np.iinfo(np.int64).max
+    enclosed = first.astype(np.int64)
+    for axis in range(grid.dim):
+        for step in (-1, 1):
+            nb = cell_idx.copy()
+            nb[:, axis] += step
+            inside = (nb[:, axis] >= 0) & (nb[:, axis] < grid.counts[axis])
+            nkeys = _linear(np.where(inside[:, None], nb, 0), grid.counts)
+            pos = np.minimum(np.searchsorted(sorted_keys, nkeys), len(sorted_keys) - 1)
+            found = inside & (sorted_keys[pos] == nkeys)
+            np.maximum(enclosed, np.where(found, first[pos], never), out=enclosed)
+    return enclosed
+
+
+def _verdict(N: int, h: float, dim: int, occupancy: tuple[int, float, float], dense: bool, half: float,
+             full: float, default: float | None) -> tuple[bool, str | None]:
+    """``(converged, advice)``: dense at N/2 and N and the estimates there (``half``, ``full``)
+    within :data:`CONVERGED_TOLERANCE`; otherwise what to change. ``occupancy``: the cells,
+    ``V(h)`` and ``V(2h)`` at N; ``default``: the default voxel for these samples (None: it is h)."""
+    if dim < 2:  # a point or a curve: volume and area are 0, exactly
+        return True, None
+    cells, _, coarse = occupancy
+    per_cell = N / max(cells, 1)
+    if not dense:
+        what = "volume" if dim == 3 else "area"
+        # the cells at 2h are better covered than those at h: at least their measure / h^dim cells to fill
+        needed = max(math.ceil(MIN_SAMPLES_PER_CELL * coarse / h**dim), 2 * N)
+        larger = f"the default for these samples is {default:.3g} m" if default is not None and default > h else \
+            "a larger voxel"
+        return False, (f"the samples are too sparse for a {h:.3g} m voxel ({per_cell:.3g} per occupied cell; the "
+                       f"extrapolation needs {MIN_SAMPLES_PER_CELL} or more at N/2 and N): the {what} is that of the "
+                       f"occupied cells, below the workspace's; give fewer, larger voxels ({larger}) or more "
+                       f"samples (at least about {needed:,} for this voxel)")
+    change = abs(full - half) / full if full > 0 else math.inf
+    if change > CONVERGED_TOLERANCE:
+        return False, (f"the estimate still changes by {change:.1%} from {N // 2} to {N} samples (converged: "
+                       f"within {CONVERGED_TOLERANCE:.0%}): give more samples or a larger voxel")
+    return True, None
+
+
 def analyse(P: np.ndarray, M: np.ndarray, *, link: str = "", measure: str = "pose", voxel: float | None = None,
             random_seed: int = 0) -> Workspace:
     """The :class:`Workspace` of sampled positions ``P`` (N, 3) and manipulability ``M`` (N,)."""
@@ -270,15 +343,34 @@ def analyse(P: np.ndarray, M: np.ndarray, *, link: str = "", measure: str = "pos
     cfirst = np.minimum.reduceat(first[corder], cstarts)
     measure_of_cell = float(np.prod(grid.cell[:dim])) if dim else 0.0
     coarse_cell = measure_of_cell * 2**dim
+    enclosed = _enclosed_from(cell_idx, first, grid)
+
+    def occupancy(n: int) -> tuple[int, float, float]:
+        """``(cells, V(h), V(2h))`` over the first n samples."""
+        k = np.count_nonzero(first < n)
+        return k, k * measure_of_cell, np.count_nonzero(cfirst < n) * coarse_cell
+
+    def dense(n: int) -> bool:
+        k, fine, coarse = occupancy(n)
+        return n >= MIN_SAMPLES_PER_CELL * k and coarse <= MAX_COARSE_RATIO * fine
+
+    # one estimator for the whole convergence series: the extrapolation when dense at N/2 and N
+    extrapolate = bool(dim) and dense(N) and dense(max(1, N // 2))
 
     def estimate(n: int) -> float:
-        fine = np.count_nonzero(first < n) * measure_of_cell
-        coarse = np.count_nonzero(cfirst < n) * coarse_cell
-        return max(2.0 * fine - coarse, 0.0) if dim else 0.0
+        if not dim:
+            return 0.0
+        _, fine, coarse = occupancy(n)
+        if not extrapolate:
+            return fine
+        return max(2.0 * fine - coarse, np.count_nonzero(enclosed < n) * measure_of_cell)
 
     convergence = [(int(n), float(estimate(n))) for n in sorted({max(1, N // 4), max(1, N // 2), N})]
     curve = [(int(n), float(estimate(int(n)))) for n in sorted({int(x) for x in np.geomspace(max(1, N / 16), N, 13)})]
     value = convergence[-1][1]
+    converged, advice = _verdict(N, h, dim, occupancy(N), extrapolate,
+                                 convergence[-2][1] if len(convergence) > 1 else value, value,
+                                 default_voxel(X, dim) if voxel is not None else None)
     centers = grid.origin + ((cell_idx + 0.5) * grid.cell) @ axes
     if dim < 3:  # flat axes: the mean position along them
         mean_flat = (P.mean(axis=0) - grid.origin) @ axes[dim:].T
@@ -289,7 +381,7 @@ def analyse(P: np.ndarray, M: np.ndarray, *, link: str = "", measure: str = "pos
         dimension=dim, volume=value if dim == 3 else 0.0, area=None if dim == 3 else (value if dim == 2 else 0.0),
         voxel=h, cell=grid.cell, axes=axes, origin=grid.origin, convergence=convergence,
         voxel_index=cell_idx, voxel_centers=centers, voxel_manipulability=best, random_seed=random_seed,
-        convergence_curve=curve,
+        convergence_curve=curve, converged=converged, advice=advice, occupied=len(first) * measure_of_cell,
     )
 
 

@@ -19,7 +19,7 @@ from importlib.metadata import entry_points
 from ..errors import KinematicsError
 
 #: sub-command modules, in the order their commands appear in ``--help``
-COMMAND_MODULES = ("check", "dh", "pipeline", "ik", "ik_path", "velocity", "workspace", "symbolic")
+COMMAND_MODULES = ("check", "dh", "pipeline", "ik", "ik_path", "velocity", "workspace", "symbolic", "calibrate")
 #: entry-point group of commands that other packages add
 PLUGIN_GROUP = "kinematics.commands"
 

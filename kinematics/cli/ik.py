@@ -1,7 +1,7 @@
 """``kinematics ik``: inverse kinematics of every target pose of a file.
 
 Targets (CSV ``x,y,z,qw,qx,qy,qz``, ``.npy`` (N, 4, 4) or (N, 7), JSON lines of poses; see
-:class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.api.ik`;
+:class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.usecases.ik`;
 the answers (joint values, success, errors, iterations) go to OUTPUT, and one summary line to
 stderr. The exit code is 1 when any target was not solved. ``--all`` writes every solution, one
 row per solution with its target's index (:mod:`kinematics.algorithms.ik_all`).
@@ -28,9 +28,9 @@ from ..algorithms.ik import (
 )
 from ..errors import JointValueError
 from ..tolerances import AGREEMENT_TOLERANCE
-from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE
 from .pipeline import (
-    ModelLoadError, _endpoints, _fail, _io_options, _model_options, _quietly, _timing, chunk_times, load_model, open_input,
+    _endpoints, _fail, _io_options, _model_options, _quietly, _timing, chunk_times, model_or_exit_code, open_input,
     open_output,
 )
 from .progress import progress
@@ -113,10 +113,9 @@ def register(sub) -> None:
 
 
 def run_ik(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("ik", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "ik")
+    if isinstance(model, int):
+        return model
     problem = _bad_option(args)
     if problem:
         return _fail("ik", problem, EXIT_USAGE)

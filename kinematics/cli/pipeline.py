@@ -2,7 +2,7 @@
 
 ``fk`` and ``jacobian`` stream a trajectory file (CSV, ``.npy`` or JSON lines; see
 :mod:`kinematics.io.trajectory` for the formats) through the use cases of
-:mod:`kinematics.api` in chunks of :data:`~kinematics.io.trajectory.CHUNK_ROWS`
+:mod:`kinematics.usecases` in chunks of :data:`~kinematics.io.trajectory.CHUNK_ROWS`
 configurations, so memory stays bounded whatever the length of the file.
 """
 
@@ -204,6 +204,43 @@ def _fail(command: str, message: str, code: int) -> int:
     return code
 
 
+def model_or_exit_code(args, command: str) -> RobotModel | int:
+    """The model the options name (:func:`load_model`), or the exit code of a model that cannot be loaded,
+    after saying why."""
+    try:
+        return load_model(args)
+    except ModelLoadError as exc:
+        return _fail(command, str(exc), EXIT_MODEL)
+
+
+def parse_point(text: str | None) -> list[float] | None:
+    """``--point X,Y,Z`` (metres, the link frame) as three numbers (None without it); a ValueError
+    naming the option otherwise."""
+    if text is None:
+        return None
+    try:
+        point = [float(v) for v in text.split(",")]
+    except ValueError:
+        point = []
+    if len(point) != 3:
+        raise ValueError(f"--point: {text!r}; give three comma-separated numbers x,y,z")
+    return point
+
+
+def verification_due(command: str, args, sampler, outside: int, n: int) -> bool:
+    """After a streamed run of ``n`` configurations: the note on those outside their limits, and whether
+    a sample is to be verified now (``--verify`` given and the sampler holds rows; none: said so)."""
+    if outside:
+        print(f"{command}: note: {outside} of {n} configurations have joint values outside the joint limits "
+              "(computed anyway)", file=sys.stderr)
+    if args.verify is None:
+        return False
+    if sampler.Q is None:
+        print(f"{command}: verify: no configuration to check", file=sys.stderr)
+        return False
+    return True
+
+
 def _stream(args, command: str, compute, labels, kind: str, model: RobotModel, verify) -> int:
     """Read INPUT in chunks, ``compute(Q)`` each, write OUTPUT; optionally verify a sample."""
     return _quietly(_stream_unguarded, args, command, compute, labels, kind, model, verify)
@@ -349,15 +386,7 @@ def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> in
     _timing(command, n, "configurations", args, time.perf_counter() - t0)
     if getattr(rows, "skipped", 0):
         print(f"{command}: skipped {rows.skipped} messages missing a model joint (--skip-incomplete)", file=sys.stderr)
-    if outside:
-        print(f"{command}: note: {outside} of {n} configurations have joint values outside the joint limits "
-              "(computed anyway)", file=sys.stderr)
-    if args.verify is None:
-        return EXIT_OK
-    if sampler.Q is None:
-        print(f"{command}: verify: no configuration to check", file=sys.stderr)
-        return EXIT_OK
-    return verify(sampler)
+    return verify(sampler) if verification_due(command, args, sampler, outside, n) else EXIT_OK
 
 
 # ============================================================================ commands
@@ -381,10 +410,9 @@ def _run_dask(args, command: str, model: RobotModel, **what) -> int:
 
 
 def run_fk(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("fk", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "fk")
+    if isinstance(model, int):
+        return model
     if args.dask:
         return _run_dask(args, "fk", model, links=_resolve_links(model, args.links))
     links = _resolve_links(model, args.links)
@@ -412,10 +440,9 @@ def run_fk(args) -> int:
 
 
 def run_jacobian(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("jacobian", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "jacobian")
+    if isinstance(model, int):
+        return model
     link = args.link or model.leaf_links[0]
     api.resolve_links(model, [link])  # unknown link: UnknownLinkError (exit 2) before reading anything
     if args.dask:

@@ -2,7 +2,7 @@
 
 Rows of ``q`` and ``qdot`` (CSV with joint-name and ``<joint>.qdot`` columns, ``.npy`` (N, 2 dof),
 JSON lines; see :class:`kinematics.io.trajectory.StateRows`) stream in chunks through
-:func:`kinematics.api.velocity`; per row and link the twist in one reference goes to OUTPUT.
+:func:`kinematics.usecases.velocity`; per row and link the twist in one reference goes to OUTPUT.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from ..usecases import Query
 from ..io.poses import tool_offset
 from ..io.trajectory import ResultWriter, RowSampler, open_state_rows
 from ..spatial.reference import REFERENCES, Reference
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import (ModelLoadError, _endpoints, _fail, _io_options, _model_options, _quietly, _resolve_links,
-                       _timing, _verdict, load_model)
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import (_endpoints, _fail, _io_options, _model_options, _quietly, _resolve_links, _timing, _verdict,
+                       model_or_exit_code, parse_point, verification_due)
 from .progress import progress
 
 STATE_HELP = """input (INPUT, by extension; '-' reads CSV from standard input): per row the joint values, then
@@ -65,19 +65,14 @@ def register(sub) -> None:
 
 
 def run_velocity(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("velocity", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "velocity")
+    if isinstance(model, int):
+        return model
     links = _resolve_links(model, args.links or ["all"])
-    point = None
-    if args.point is not None:
-        try:
-            point = [float(v) for v in args.point.split(",")]
-        except ValueError:
-            point = []
-        if len(point) != 3:
-            return _fail("velocity", f"--point: {args.point!r}; give three comma-separated numbers x,y,z", EXIT_USAGE)
+    try:
+        point = parse_point(args.point)
+    except ValueError as exc:
+        return _fail("velocity", str(exc), EXIT_USAGE)
     return _quietly(_run, args, model, links, point)
 
 
@@ -108,13 +103,7 @@ def _run(args, model, links, point) -> int:
             bar.close()
     n = writer.rows
     _timing("velocity", n, "configurations", args, time.perf_counter() - t0)
-    if outside:
-        print(f"velocity: note: {outside} of {n} configurations have joint values outside the joint limits "
-              "(computed anyway)", file=sys.stderr)
-    if args.verify is None:
-        return EXIT_OK
-    if sampler.Q is None:
-        print("velocity: verify: no configuration to check", file=sys.stderr)
+    if not verification_due("velocity", args, sampler, outside, n):
         return EXIT_OK
     from ..verify import pinocchio
 

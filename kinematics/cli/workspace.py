@@ -1,6 +1,6 @@
 """``kinematics workspace``: sample the reachable set of a link, save the cloud, plot the dexterity map.
 
-Samples configurations uniformly within the joint limits (:func:`kinematics.api.workspace`),
+Samples configurations uniformly within the joint limits (:func:`kinematics.usecases.workspace`),
 prints the summary (bounding box, reach, volume or area and its convergence, cell size,
 manipulability range), writes the cloud (``-o``: ``.npz`` with the dexterity map, or ``.csv``
 rows ``x,y,z,manipulability``) and draws (``--plot``, matplotlib's Agg backend) three orthogonal
@@ -21,9 +21,9 @@ import numpy as np
 
 from .. import api
 from ..usecases import Query
-from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, SAMPLES_PER_CELL
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _fail, _model_options, load_model
+from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import _fail, _model_options, model_or_exit_code, parse_point
 from .progress import progress
 
 OUTPUT_HELP = """output (-o, by extension):
@@ -35,7 +35,9 @@ OUTPUT_HELP = """output (-o, by extension):
 manipulability (--measure): the product of the singular values of the link's local_world_aligned
 Jacobian over the joints on its path, 6 x k (pose, default) or its 3 position rows (position).
 volume: occupied cells of edge --voxel (default: about N/%d cells in the bounding box),
-extrapolated as 2 V(h) - V(2h); its convergence is the same estimate over the first N/4, N/2, N.""" % SAMPLES_PER_CELL
+extrapolated as 2 V(h) - V(2h) where the samples are dense for h (at least %d per occupied cell), else
+the occupied cells' volume, flagged "not converged" with advice; its convergence is the same estimate over
+the first N/4, N/2, N.""" % (SAMPLES_PER_CELL, MIN_SAMPLES_PER_CELL)
 
 
 def register(sub) -> None:
@@ -67,10 +69,9 @@ def register(sub) -> None:
 
 
 def run_workspace(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("workspace", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "workspace")
+    if isinstance(model, int):
+        return model
     if args.samples < 1:
         return _fail("workspace", "--samples must be at least 1", EXIT_USAGE)
     if args.voxel is not None and not (math.isfinite(args.voxel) and args.voxel > 0):
@@ -78,14 +79,10 @@ def run_workspace(args) -> int:
     for path, exts in ((args.output, (".npz", ".csv")), (args.plot, (".png",))):
         if path is not None and os.path.splitext(path)[1].lower() not in exts:
             return _fail("workspace", f"{path}: give a file ending in {' or '.join(exts)}", EXIT_USAGE)
-    point = None
-    if args.point is not None:
-        try:
-            point = [float(v) for v in args.point.split(",")]
-        except ValueError:
-            point = []
-        if len(point) != 3:
-            return _fail("workspace", f"--point: {args.point!r}; give three comma-separated numbers x,y,z", EXIT_USAGE)
+    try:
+        point = parse_point(args.point)
+    except ValueError as exc:
+        return _fail("workspace", str(exc), EXIT_USAGE)
     link = args.link or (model.leaf_links[0] if model.leaf_links else model.root)
     query = Query(model, link=link, point=point)
     query.frame_link()  # unknown link: exit 2 before sampling
@@ -119,7 +116,8 @@ def summary(name: str, ws, elapsed: float) -> str:
         f"  bounding box  min [{lo[0]:.4f}, {lo[1]:.4f}, {lo[2]:.4f}]  max [{hi[0]:.4f}, {hi[1]:.4f}, {hi[2]:.4f}] m",
         f"  reach         {ws.reach:.4f} m (from the root)",
         f"  dimension     {ws.dimension}" + (" (planar)" if ws.dimension == 2 else ""),
-        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}",
+        f"  {what:<13} {value:.5g} {unit}; convergence (samples): {conv}"
+        + ("" if ws.converged else f"\n  not converged: {ws.advice}"),
         f"  voxel         {ws.voxel:.4g} m (cells {', '.join(f'{c:.4g}' for c in ws.cell)}; "
         f"{ws.voxel_centers.shape[0]} occupied)",
         f"  manipulability ({ws.measure}) min {M.min():.4g}, mean {M.mean():.4g}, max {M.max():.4g}",

@@ -25,7 +25,7 @@ scalar remainder give the same bits, and a single configuration equals its row o
 Functions are compiled on first use and cached on disk (``cache=True``; numba keeps the
 cache next to this file when it can write there, else in ``~/.cache/numba``, or in
 ``NUMBA_CACHE_DIR``): the first run on a machine takes a few seconds, later processes
-load the cache in well under a second (:func:`kinematics.api.warm_up` does it at server start).
+load the cache in well under a second (:func:`kinematics.usecases.warm_up` does it at server start).
 """
 
 from __future__ import annotations

@@ -10,7 +10,8 @@ How many threads (:func:`thread_count`): the innermost ``with threads(n):`` bloc
 calling thread (a context variable), else :func:`set_threads`, else the environment variable
 ``KIN_THREADS``, else the cores this process may run on (``len(os.sched_getaffinity(0))``).
 Batches below ``min_rows`` rows per thread stay on the calling thread (a thread hand-off
-costs ~10-50 µs).
+costs ~10-50 µs); below two threads' worth they do not even read the thread count (a small
+batch, a single configuration: the environment look-up alone cost ~1 µs of a ~2 µs kernel).
 
 >>> import numpy as np
 >>> from kinematics import compile_model, default_catalogue
@@ -138,9 +139,15 @@ def run_rows(fn, N: int, min_rows: int = FK_MIN_ROWS, piece_rows: int | None = N
     token is checked before each piece (:class:`~kinematics.errors.CancelledError`,
     :class:`~kinematics.errors.TimeBudgetError`); the bits of every row are the same.
     """
+    token = cancel.current()
+    if token is None and n_threads is None and N < 2 * max(1, min_rows):
+        # under two threads' worth of rows (a single configuration, a small batch): here, at once,
+        # without reading the thread count (its environment look-up costs more than a one-row kernel)
+        if N:
+            fn(0, N)
+        return 1
     t = n_threads if n_threads is not None else thread_count()
     t = min(t, N // max(1, min_rows))
-    token = cancel.current()
     if token is not None:  # cancellable: pieces, and a check before each (kinematics.engine.cancel)
         token.check()
         if piece_rows is None:

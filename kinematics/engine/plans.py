@@ -49,7 +49,7 @@ import numpy as np
 
 from ..spatial.reference import Reference
 from ..spatial.transforms import inverse_transform
-from . import compiled
+from . import compiled, entries
 from . import ik as ik_kernel
 from . import velocity as velocity_kernel
 from .buffers import result_array
@@ -165,6 +165,8 @@ class Kernel:
         jflt[:, compiled.J_CZ:] = CZ[:, :3, :].reshape(n, 12)
         self._jint, self._jflt = jint, jflt
         self._plans: dict[tuple[int, ...] | None, _Plan] = {}
+        self._named: dict[tuple[str, ...], _Plan] = {}
+        self._single: dict = {}  # bound single-configuration entries (kinematics.engine.entries)
         self._plan_all = self.plan(None)
         self._jplans: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._jcols: dict[int, np.ndarray] = {}
@@ -196,27 +198,72 @@ class Kernel:
             self._plans[key] = plan
         return plan
 
+    def named_plan(self, links) -> _Plan:
+        """The plan for the links named ``links`` (a sequence of names; None: every link), from a cache
+        keyed by the names: a repeated call (a single configuration at a time) resolves no name and
+        builds no key of indices. An unknown name raises :class:`~kinematics.errors.UnknownLinkError`
+        (and is not cached)."""
+        if links is None:
+            return self._plan_all
+        key = links if type(links) is tuple else tuple(links)
+        try:
+            plan = self._named.get(key)
+        except TypeError:  # not hashable (a list inside): resolved as it is, not cached
+            return self.plan(self.poe.link_indices(links))
+        if plan is None:
+            plan = self.plan(self.poe.link_indices(key))
+            if len(self._named) < PLAN_CACHE_SIZE:
+                self._named[key] = plan
+        return plan
+
     def fk(self, Q: np.ndarray, link_idx: np.ndarray | None = None, out: np.ndarray | None = None,
-           chunk: int = CHUNK_SIZE, tool: np.ndarray | None = None) -> np.ndarray:
+           chunk: int = CHUNK_SIZE, tool: np.ndarray | None = None, plan: _Plan | None = None) -> np.ndarray:
         """Poses ``T_world_link`` (N, L', 4, 4) of ``link_idx`` (None: all) for q (N, dof).
 
         One call of the compiled kernel (:func:`kinematics.engine.compiled.fk`) whatever N: a single
         configuration takes the same arithmetic as a row of a batch, bit for bit. ``tool``: a
         constant ``T_link_tool`` (4, 4) every output is right-multiplied by (folded into the
-        constant factors: ``D @ T_link_tool``).
+        constant factors: ``D @ T_link_tool``). ``plan``: the plan itself (:meth:`named_plan`), instead
+        of ``link_idx``.
         """
         N = Q.shape[0]
-        plan = self._plan_all if link_idx is None else self.plan(link_idx)
+        if plan is None:
+            plan = self._plan_all if link_idx is None else self.plan(link_idx)
         n_out = plan.lj.shape[0]
         if out is None:
             out = result_array((N, n_out, 4, 4))
-        if N:
+        if N == 1 and tool is None:  # one configuration: the single entry, same bits, a third of the call cost
+            cancel.check()
+            self._one_fk(plan)(np.ascontiguousarray(Q[0], dtype=np.float64), out[0])
+        elif N:
             Q = np.ascontiguousarray(Q, dtype=np.float64)
             D, out3, c = with_tool(plan.pose, tool), out.reshape(N, n_out, 16), max(1, min(chunk, N))
             # rows split over threads (kinematics.engine.parallel): each row's bits do not depend on the split
             run_rows(lambda a, b: compiled.fk(Q[a:b], self._jint, self._jflt, plan.order, plan.lj, D, out3[a:b], c),
                      N, FK_MIN_ROWS, align=CHUNK_SIZE)
         return out
+
+    def _one_fk(self, plan: _Plan):
+        """``f(q, out)``: the single-configuration entry of :mod:`kinematics.engine.entries` bound to
+        ``plan`` (built once per plan): one call of a compiled entry on packed tables instead of the
+        batch kernel's eight arguments, so that a batch of one costs little more than ``fk_function``."""
+        entry = self._single.get(id(plan))
+        if entry is None or entry[0] is not plan:  # (an id may be reused by a plan that was not cached)
+            entry = (plan, entries.bound_plan_fk(self, plan))
+            if len(self._single) < PLAN_CACHE_SIZE:
+                self._single[id(plan)] = entry
+        return entry[1]
+
+    def _one_jacobian(self, link_index: int, code: int):
+        """``f(q, out)``: the single-configuration Jacobian entry of link ``link_index`` in reference
+        ``code`` (:mod:`kinematics.engine.entries`), built once per link and reference."""
+        key = (link_index, code)
+        fn = self._single.get(key)
+        if fn is None:
+            fn = entries.bound_path_jacobian(self, link_index, code)
+            if len(self._single) < 2 * PLAN_CACHE_SIZE:
+                self._single[key] = fn
+        return fn
 
     # ------------------------------------------------------------------ velocities
     def velocity(self, Q: np.ndarray, Qd: np.ndarray, link_idx: np.ndarray | None = None,
@@ -284,6 +331,10 @@ class Kernel:
         """
         N = Q.shape[0]
         J = result_array((N, 6, Q.shape[1]))  # zeroed by each thread for its rows (the kernel adds columns)
+        if N == 1 and tool is None:  # one configuration: the single entry (zeroes J itself), same bits
+            cancel.check()
+            self._one_jacobian(link_index, _REFERENCE_CODES[reference])(np.ascontiguousarray(Q[0], dtype=np.float64), J[0])
+            return J
         path, D = self.path_plan(link_index)
         D = with_tool(D, tool)
         if N and len(path):

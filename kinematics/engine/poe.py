@@ -180,12 +180,13 @@ class PoEModel:
             Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
-        idx = None if links is None else self.link_indices(links)
+        kernel = self.kernel
+        plan = kernel.named_plan(links)  # names resolved once per list of names (a cache of the kernel)
         if out is not None:
-            n_out = len(self.link_names) if idx is None else len(idx)
+            n_out = plan.lj.shape[0]
             if out.shape != (Q.shape[0], n_out, 4, 4) or out.dtype != np.float64 or not out.flags.c_contiguous:
                 raise KinematicsError(f"out must be a C-contiguous float64 array of shape {(Q.shape[0], n_out, 4, 4)}")
-        return self.kernel.fk(Q, idx, out=out, tool=as_tool(tool))
+        return kernel.fk(Q, out=out, tool=None if tool is None else as_tool(tool), plan=plan)
 
     def jacobian(self, Q: np.ndarray, link: str, reference: str = Reference.WORLD,
                  tool: np.ndarray | None = None) -> np.ndarray:
@@ -197,11 +198,14 @@ class PoEModel:
         also turns into its axes).
         """
         reference = parse_reference(reference)
-        li = int(self.link_indices([link])[0])
-        Q = np.asarray(Q, dtype=float)
+        li = self.model.link_index.get(link) if type(link) is str else None
+        if li is None:  # unknown (named in the error) or not a name
+            li = int(self.link_indices([link])[0])
+        if type(Q) is not np.ndarray or Q.dtype != np.float64:
+            Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.dof:
             raise KinematicsError(f"q must have shape (N, {self.dof}), got {Q.shape}")
-        return self.kernel.jacobian(Q, li, reference, tool=as_tool(tool))
+        return self.kernel.jacobian(Q, li, reference, tool=None if tool is None else as_tool(tool))
 
     def velocity(self, Q: np.ndarray, Qd: np.ndarray, links: Sequence[str] | None = None,
                  tool: np.ndarray | None = None) -> dict[Reference, np.ndarray]:

@@ -4,16 +4,18 @@ A batch call (``PoEModel.fk(Q)``) validates its arguments, looks up its plan and
 its scratch and result on every call: a few microseconds that dominate when the batch is one
 configuration. :func:`fk_function` and :func:`jacobian_function` do that work once and
 return a plain function of ``q`` (a float64 vector of ``dof`` values) that makes one call of a
-compiled entry (:func:`fk_one`, :func:`jacobian_one`) on two packed tables (every argument
-costs the numba dispatcher time) whose tail is a per-thread scratch buffer. The entries compute
-the axis frames with scalar code that repeats the batch kernels' arithmetic operation for
-operation (:func:`_frames_one`), then run the batch kernels' own ``_poses_row`` /
+compiled entry (:func:`~kinematics.engine.entries.fk_one`, :func:`~kinematics.engine.entries.jacobian_one`)
+on two packed tables (every argument costs the numba dispatcher time) whose tail is a per-thread
+scratch buffer. The entries compute the axis frames with scalar code that repeats the batch
+kernels' arithmetic operation for operation, then run the batch kernels' own ``_poses_row`` /
 ``_jacobian_row``: the answer equals the batch row bit for bit (``tests/kinematics/engine/test_single.py``).
+A batch of one row (``PoEModel.fk`` / ``jacobian`` with one configuration) runs the same entries.
 
 What bounds it: the compiled work is ~0.1-0.2 µs for a 6-joint arm; the rest is the fixed
 cost of entering numba from Python (its dispatcher types each argument: ~0.05 µs each, ~0.3
 µs in all) and of allocating the (4, 4) result (~0.15 µs; pass ``out=`` to reuse one).
-``bench/logs.py`` measures it against Pinocchio's single call.
+``bench/single.py`` (``python -m bench.run_all --only single``) measures it against Pinocchio's
+single call, with the spread over repeated runs.
 
 >>> import numpy as np
 >>> from kinematics import compile_model, default_catalogue
@@ -29,145 +31,11 @@ True
 
 from __future__ import annotations
 
-import math
-import threading
-
-import numba as nb
 import numpy as np
 
-from ..errors import KinematicsError
 from ..spatial.reference import parse_reference
-from . import compiled as _c
-from .compiled import _JIT, REVOLUTE, SINCOS_MAX_ARG, _jacobian_row, _poses_row
+from .entries import _bind, _tables, fk_one, jacobian_one
 from .plans import _REFERENCE_CODES, with_tool
-
-
-@nb.njit(**_JIT)
-def _unpack(itab, ftab, q):
-    """The packed tables: ``itab`` int64 ``[n, m, x, jint (n x 3), joints (m), links]`` and ``ftab``
-    float64 ``[jflt (n x 14), D (... x 16), scratch (15 n + dof)]`` (one argument each: every
-    argument costs the dispatcher time)."""
-    n, m = itab[0], itab[1]
-    jint = itab[3: 3 + 3 * n].reshape(n, 3)
-    joints = itab[3 + 3 * n: 3 + 3 * n + m]
-    links = itab[3 + 3 * n + m:]
-    dof = q.shape[0]
-    size = ftab.shape[0]
-    jflt = ftab[: 14 * n].reshape(n, 14)
-    D = ftab[14 * n: size - 15 * n - dof]
-    base = size - 15 * n - dof
-    F = ftab[base: base + 12 * n].reshape(n, 12, 1)
-    W = ftab[base + 12 * n: base + 15 * n].reshape(3, n, 1)
-    Q = ftab[base + 15 * n:].reshape(1, dof)
-    for c in range(dof):
-        Q[0, c] = q[c]
-    return jint, joints, links, jflt, D, F, W, Q
-
-
-@nb.njit(**_JIT)
-def _frames_one(q, joints, jint, jflt, F):
-    """The axis frames ``F[j, :, 0]`` of ``joints`` (parents first) for one configuration: the
-    arithmetic of ``compiled._chunk_frames`` / ``_sincos_row`` / ``_joint_frames`` for a chunk of
-    one, operation for operation (same bits), as scalar code without the chunk's row views."""
-    for jj in range(joints.shape[0]):
-        j = joints[jj]
-        th = q[jint[j, 0]] * jflt[j, 0] + jflt[j, 1]
-        # sine and cosine: compiled._sincos_row
-        k = np.rint(th * _c._TWO_OVER_PI)
-        r = (th - k * _c._PIO2_1) - k * _c._PIO2_1T
-        z = r * r
-        sr = r + r * z * (_c._S6 + z * (_c._S5 + z * (_c._S4 + z * (_c._S3 + z * (_c._S2 + z * _c._S1)))))
-        cr = 1.0 - 0.5 * z + z * z * (_c._C6 + z * (_c._C5 + z * (_c._C4 + z * (_c._C3 + z * (_c._C2 + z * _c._C1)))))
-        qd = np.int64(k) & 3
-        A = abs(qd - 2.0) - 1.0
-        B = 1.0 - abs(qd - 1.0)
-        s = A * sr + B * cr
-        c = A * cr - B * sr
-        if not abs(th) <= SINCOS_MAX_ARG:
-            s = math.sin(th)
-            c = math.cos(th)
-        # the frame: compiled._joint_frames
-        p = jint[j, 2]
-        revolute = jint[j, 1] == REVOLUTE
-        if p < 0:
-            for r in range(3):
-                x = jflt[j, 2 + 4 * r]
-                y = jflt[j, 2 + 4 * r + 1]
-                zz = jflt[j, 2 + 4 * r + 2]
-                t = jflt[j, 2 + 4 * r + 3]
-                if revolute:
-                    F[j, 4 * r, 0] = c * x + s * y
-                    F[j, 4 * r + 1, 0] = c * y - s * x
-                    F[j, 4 * r + 3, 0] = t
-                else:
-                    F[j, 4 * r, 0] = x
-                    F[j, 4 * r + 1, 0] = y
-                    F[j, 4 * r + 3, 0] = t + th * zz
-                F[j, 4 * r + 2, 0] = zz
-            continue
-        c00, c01, c02, c03 = jflt[j, 2], jflt[j, 3], jflt[j, 4], jflt[j, 5]
-        c10, c11, c12, c13 = jflt[j, 6], jflt[j, 7], jflt[j, 8], jflt[j, 9]
-        c20, c21, c22, c23 = jflt[j, 10], jflt[j, 11], jflt[j, 12], jflt[j, 13]
-        for r in range(3):
-            a0 = F[p, 4 * r, 0]
-            a1 = F[p, 4 * r + 1, 0]
-            a2 = F[p, 4 * r + 2, 0]
-            p3 = F[p, 4 * r + 3, 0]
-            if revolute:
-                x = a0 * c00 + a1 * c10 + a2 * c20
-                y = a0 * c01 + a1 * c11 + a2 * c21
-                F[j, 4 * r, 0] = c * x + s * y
-                F[j, 4 * r + 1, 0] = c * y - s * x
-                F[j, 4 * r + 2, 0] = a0 * c02 + a1 * c12 + a2 * c22
-                F[j, 4 * r + 3, 0] = a0 * c03 + a1 * c13 + a2 * c23 + p3
-            else:
-                zz = a0 * c02 + a1 * c12 + a2 * c22
-                F[j, 4 * r, 0] = a0 * c00 + a1 * c10 + a2 * c20
-                F[j, 4 * r + 1, 0] = a0 * c01 + a1 * c11 + a2 * c21
-                F[j, 4 * r + 2, 0] = zz
-                F[j, 4 * r + 3, 0] = a0 * c03 + a1 * c13 + a2 * c23 + p3 + th * zz
-
-
-@nb.njit(**_JIT)
-def fk_one(itab, ftab, out, q):
-    """Poses of the links of a plan (as :func:`kinematics.engine.compiled.fk`) for one
-    configuration ``q`` (dof,), into ``out`` (L', 4, 4) or (4, 4) for one link (C-contiguous).
-    Tables as :func:`_unpack` (``x`` unused, links: the plan's ``lj``, D: its (L', 4, 4) factors)."""
-    jint, order, lj, jflt, D, F, W, Q = _unpack(itab, ftab, q)
-    _frames_one(q, order, jint, jflt, F)
-    _poses_row(F, 0, lj, D.reshape(lj.shape[0], 4, 4), out.reshape(lj.shape[0], 16))
-
-
-@nb.njit(**_JIT)
-def jacobian_one(itab, ftab, out, q):
-    """The Jacobian (6, dof) of a link (as :func:`kinematics.engine.compiled.jacobian`) for one
-    configuration ``q`` (dof,), into ``out`` (zeroed here first). Tables as :func:`_unpack` (``x``:
-    the reference code, joints: the link's path, D: its (4, 4) factor)."""
-    jint, path, _, jflt, D, F, W, Q = _unpack(itab, ftab, q)
-    for r in range(6):
-        for c in range(out.shape[1]):
-            out[r, c] = 0.0
-    if path.shape[0] == 0:
-        return
-    _frames_one(q, path, jint, jflt, F)
-    _jacobian_row(F, 0, path, jint, jflt, D.reshape(4, 4), itab[2], out)
-
-
-def _tables(kernel, joints, x: int, links, D: np.ndarray, dof: int):
-    n = kernel.n
-    itab = np.concatenate([np.array([n, len(joints), x], dtype=np.int64), kernel._jint.reshape(-1),
-                           np.asarray(joints, dtype=np.int64), np.asarray(links, dtype=np.int64)])
-    ftab = np.concatenate([kernel._jflt.reshape(-1), np.ascontiguousarray(D, dtype=np.float64).reshape(-1),
-                           np.zeros(15 * n + dof)])
-    itab.setflags(write=False)
-    return itab, ftab
-
-
-def _coerce(q, dof: int) -> np.ndarray:
-    q = np.ascontiguousarray(q, dtype=np.float64)
-    if q.shape != (dof,):
-        raise KinematicsError(f"q must be a vector of {dof} joint values, got shape {q.shape}")
-    return q
 
 
 def _compiled(model):
@@ -178,17 +46,6 @@ def _compiled(model):
 
     return require_one_dof(getattr(model, "model", model), "single-configuration entries (fk_function, "
                            "jacobian_function)")
-
-
-def _per_thread(ftab: np.ndarray):
-    """Each thread's own copy of the float table (its tail is the scratch the entry writes)."""
-    local = threading.local()
-
-    def get() -> np.ndarray:
-        local.ftab = ftab.copy()
-        return local.ftab
-
-    return local, get
 
 
 def fk_function(poe, links, tool: np.ndarray | None = None):
@@ -207,27 +64,6 @@ def fk_function(poe, links, tool: np.ndarray | None = None):
     fk = _bind(fk_one, itab, ftab, (4, 4) if one else (len(idx), 4, 4), dof)
     fk.__doc__ = f"Pose(s) {(4, 4) if one else (len(idx), 4, 4)} of {links!r} of model {poe.model.name!r} for one q ({dof} values)."
     return fk
-
-
-def _bind(entry, itab, ftab, shape, dof):
-    """``f(q, out=None)`` calling the compiled ``entry`` on pre-bound tables, with each thread's
-    own scratch copy of ``ftab`` (the hot path: no lookup beyond the ones below)."""
-    local, mine = _per_thread(ftab)
-    ndarray, f64, empty, qshape = np.ndarray, np.dtype(np.float64), np.empty, (dof,)
-
-    def call(q, out=None):
-        if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape:
-            q = _coerce(q, dof)
-        try:
-            f = local.ftab
-        except AttributeError:
-            f = mine()
-        if out is None:
-            out = empty(shape)
-        entry(itab, f, out, q)
-        return out
-
-    return call
 
 
 def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray | None = None):

@@ -78,22 +78,12 @@ class AxesDescription:
 
 def axes_from_dict(d: Mapping[str, Any]) -> AxesDescription:
     """Validate a description (the shape above); :class:`~kinematics.errors.AxesError` names the field."""
-    if not isinstance(d, Mapping):
-        raise AxesError(f"an axes description must be a mapping (JSON object), got {type(d).__name__}")
-    d = {k: v for k, v in d.items() if v is not None}
-    unknown = set(d) - _KEYS
-    if unknown:
-        raise AxesError(f"unknown field(s) {sorted(unknown)}; an axes description has {sorted(_KEYS)}")
+    d = serial.fields(d, _KEYS, AxesError, "an axes description")
     angles, scale = serial.angle_unit(d, AxesError)
     out = []
     for i, raw in enumerate(serial.joint_list(d, AxesError)):
         where = f"joints[{i}]"
-        if not isinstance(raw, Mapping):
-            raise AxesError(f"{where}: expected a mapping with type, h, p, name, limits")
-        raw = {k: v for k, v in raw.items() if v is not None}
-        unknown = set(raw) - _JOINT_KEYS
-        if unknown:
-            raise AxesError(f"{where}: unknown field(s) {sorted(unknown)}; a joint has {sorted(_JOINT_KEYS)}")
+        raw = serial.fields(raw, _JOINT_KEYS, AxesError, "a joint", where)
         for key in ("type", "h"):
             if key not in raw:
                 raise AxesError(f"{where}.{key}: missing")
@@ -101,12 +91,7 @@ def axes_from_dict(d: Mapping[str, Any]) -> AxesDescription:
         h = serial.unit_vector(raw["h"], f"{where}.h", AxesError)
         p = serial.vector(raw.get("p", [0, 0, 0]), 3, f"{where}.p", AxesError)
         jname = serial.name(raw.get("name", f"joint_{i + 1}"), f"{where}.name", AxesError)
-        lim = None
-        if "limits" in raw:
-            if jtype == "continuous":
-                raise AxesError(f"{where}.limits: a continuous joint has no limits")
-            lim = serial.limits(raw["limits"], f"{where}.limits", scale if jtype != "prismatic" else 1.0, AxesError)
-        out.append(AxesJoint(jname, jtype, h, p, lim))
+        out.append(AxesJoint(jname, jtype, h, p, serial.joint_limits(raw, jtype, where, scale, AxesError)))
     serial.check_names([j.name for j in out], AxesError)
     p_nT = serial.vector(d.get("p_nT", [0, 0, 0]), 3, "p_nT", AxesError)
     R_nT = serial.rotation(d["R_nT"], "R_nT", scale, AxesError) if "R_nT" in d else np.eye(3)
@@ -117,12 +102,8 @@ def axes_from_dict(d: Mapping[str, Any]) -> AxesDescription:
 def axes_to_dict(desc: AxesDescription) -> dict:
     """The description in the shape :func:`axes_from_dict` reads (radians, every field explicit):
     the canonical form the service stores and hashes."""
-    joints = []
-    for j in desc.joints:
-        row = {"type": j.type, "h": serial.plain_list(j.h), "p": serial.plain_list(j.p), "name": j.name}
-        if j.limits is not None:
-            row["limits"] = [serial.plain(j.limits[0]), serial.plain(j.limits[1])]
-        joints.append(row)
+    joints = [serial.joint_row(j, type=j.type, h=serial.plain_list(j.h), p=serial.plain_list(j.p), name=j.name)
+              for j in desc.joints]
     return {"name": desc.name, "angles": "radians", "joints": joints, "p_nT": serial.plain_list(desc.p_nT),
             "R_nT": serial.plain_list(desc.R_nT)}
 
@@ -146,8 +127,4 @@ def model_from_axes(desc: AxesDescription, *, max_links: int = DEFAULT_MAX_LINKS
 
 def load_axes(path) -> AxesDescription:
     """Read a description from a ``.yaml``/``.yml``/``.json`` file (errors name the file)."""
-    data = serial.load_mapping(path, AxesError, "axes description")
-    try:
-        return axes_from_dict(data)
-    except AxesError as exc:
-        raise AxesError(f"{path}: {exc}") from None
+    return serial.load_description(path, axes_from_dict, AxesError, "axes description")

@@ -52,7 +52,6 @@ import json
 import math
 import re
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Mapping
 from xml.sax.saxutils import quoteattr
 
@@ -62,6 +61,7 @@ from ..errors import DHError
 from ..model.robot import RobotModel, frozen_array
 from ..spatial.rotations import matrix_to_rpy_exact, rpy_to_matrix
 from ..tolerances import MAX_ABS_COORDINATE, MAX_ABS_JOINT_VALUE, RIGID_TOLERANCE
+from .text_files import MAX_FILE_BYTES, fields, read_description_file
 from .urdf import DEFAULT_MAX_LINKS, parse_urdf
 
 CONVENTIONS = ("standard", "modified")
@@ -81,7 +81,7 @@ DEFAULT_VELOCITY = 2.0
 #: most rows a table may have
 MAX_DH_ROWS = 1000
 #: largest table file :func:`load_table` reads (bytes)
-MAX_TABLE_BYTES = 8 * 1024 * 1024
+MAX_TABLE_BYTES = MAX_FILE_BYTES
 #: names of robots and joints: letters, digits and ``_ . - / :``; at most 128 characters
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-/:]{0,127}$")
 #: robot name when a table has none
@@ -318,12 +318,7 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
     >>> (t.convention, t.rows[0].name, t.rows[0].a)
     ('standard', 'joint_1', 1.0)
     """
-    if not isinstance(d, Mapping):
-        raise DHError(f"a DH table must be a mapping (JSON object), got {type(d).__name__}")
-    d = {k: v for k, v in d.items() if v is not None}
-    unknown = set(d) - _TABLE_KEYS
-    if unknown:
-        raise DHError(f"unknown field(s) {sorted(unknown)}; a DH table has {sorted(_TABLE_KEYS)}")
+    d = fields(d, _TABLE_KEYS, DHError, "a DH table")
     convention = d.get("convention", "standard")
     if not isinstance(convention, str) or convention.lower() not in CONVENTIONS:
         raise DHError(f"convention: {convention!r} is not one of {list(CONVENTIONS)}")
@@ -348,12 +343,7 @@ def table_from_dict(d: Mapping[str, Any]) -> DHTable:
     seen: dict[str, int] = {}
     for i, raw in enumerate(joints):
         where = f"joints[{i}]"
-        if not isinstance(raw, Mapping):
-            raise DHError(f"{where}: expected a mapping with type, a, alpha, d, theta")
-        raw = {k: v for k, v in raw.items() if v is not None}
-        unknown = set(raw) - _ROW_KEYS
-        if unknown:
-            raise DHError(f"{where}: unknown field(s) {sorted(unknown)}; a row has {sorted(_ROW_KEYS)}")
+        raw = fields(raw, _ROW_KEYS, DHError, "a row", where)
         jtype = raw.get("type")
         if jtype is None:
             raise DHError(f"{where}.type: missing (revolute or prismatic)")
@@ -429,17 +419,7 @@ def table_to_dict(table: DHTable, angles: str | None = None) -> dict:
 
 def load_table(path) -> DHTable:
     """Read a table from a ``.yaml``/``.yml``/``.json`` file (raises DHError naming the file)."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".yaml", ".yml", ".json"):
-        raise DHError(f"{path}: a DH table file must end in .yaml, .yml or .json")
-    try:
-        size = path.stat().st_size
-        if size > MAX_TABLE_BYTES:
-            raise DHError(f"{path}: {size} bytes; a table file may have at most {MAX_TABLE_BYTES}")
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeError) as exc:
-        raise DHError(f"{path}: cannot read the table file: {exc}") from None
+    text, suffix = read_description_file(path, DHError, "DH table")
     return loads_table(text, fmt="json" if suffix == ".json" else "yaml", source=str(path))
 
 

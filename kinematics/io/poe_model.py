@@ -100,12 +100,7 @@ def adjoint(T: np.ndarray) -> np.ndarray:
 
 def poe_from_dict(d: Mapping[str, Any]) -> PoEDescription:
     """Validate a PoE description (the shape above); :class:`~kinematics.errors.PoEError` names the field."""
-    if not isinstance(d, Mapping):
-        raise PoEError(f"a PoE description must be a mapping (JSON object), got {type(d).__name__}")
-    d = {k: v for k, v in d.items() if v is not None}
-    unknown = set(d) - _KEYS
-    if unknown:
-        raise PoEError(f"unknown field(s) {sorted(unknown)}; a PoE description has {sorted(_KEYS)}")
+    d = serial.fields(d, _KEYS, PoEError, "a PoE description")
     angles, scale = serial.angle_unit(d, PoEError)
     if "M" not in d:
         raise PoEError("M: missing (the end-effector pose at q = 0: a 4x4 matrix or {xyz, rpy})")
@@ -115,12 +110,7 @@ def poe_from_dict(d: Mapping[str, Any]) -> PoEDescription:
     out = []
     for i, raw in enumerate(joints):
         where = f"joints[{i}]"
-        if not isinstance(raw, Mapping):
-            raise PoEError(f"{where}: expected a mapping with S (or B), type, name, limits")
-        raw = {k: v for k, v in raw.items() if v is not None}
-        unknown = set(raw) - _JOINT_KEYS
-        if unknown:
-            raise PoEError(f"{where}: unknown field(s) {sorted(unknown)}; a joint has {sorted(_JOINT_KEYS)}")
+        raw = serial.fields(raw, _JOINT_KEYS, PoEError, "a joint", where)
         given = [k for k in ("S", "B") if k in raw]
         if len(given) != 1:
             raise PoEError(f"{where}: give its screw as S (space frame) or B (body frame), exactly one")
@@ -154,11 +144,7 @@ def poe_from_dict(d: Mapping[str, Any]) -> PoEDescription:
             if (jtype == "prismatic") != (kind == "prismatic"):
                 raise PoEError(f"{where}.type: {jtype!r}, but {letter} is the screw of a {kind} joint")
         jname = serial.name(raw.get("name", f"joint_{i + 1}"), f"{where}.name", PoEError)
-        lim = None
-        if "limits" in raw:
-            if jtype == "continuous":
-                raise PoEError(f"{where}.limits: a continuous joint has no limits")
-            lim = serial.limits(raw["limits"], f"{where}.limits", scale if jtype != "prismatic" else 1.0, PoEError)
+        lim = serial.joint_limits(raw, jtype, where, scale, PoEError)
         screw = np.concatenate([w, v])
         if letter == "B":
             screw = adjoint(M) @ screw
@@ -171,12 +157,7 @@ def poe_from_dict(d: Mapping[str, Any]) -> PoEDescription:
 def poe_to_dict(desc: PoEDescription) -> dict:
     """The description in the shape :func:`poe_from_dict` reads: space screws, radians, M as 4x4
     (the canonical form the service stores and hashes)."""
-    joints = []
-    for j in desc.joints:
-        row = {"S": serial.plain_list(j.S), "type": j.type, "name": j.name}
-        if j.limits is not None:
-            row["limits"] = [serial.plain(j.limits[0]), serial.plain(j.limits[1])]
-        joints.append(row)
+    joints = [serial.joint_row(j, S=serial.plain_list(j.S), type=j.type, name=j.name) for j in desc.joints]
     return {"name": desc.name, "angles": "radians", "M": serial.plain_list(desc.M), "joints": joints}
 
 
@@ -208,8 +189,4 @@ def model_from_poe(desc: PoEDescription, *, max_links: int = DEFAULT_MAX_LINKS) 
 
 def load_poe(path) -> PoEDescription:
     """Read a description from a ``.yaml``/``.yml``/``.json`` file (errors name the file)."""
-    data = serial.load_mapping(path, PoEError, "PoE description")
-    try:
-        return poe_from_dict(data)
-    except PoEError as exc:
-        raise PoEError(f"{path}: {exc}") from None
+    return serial.load_description(path, poe_from_dict, PoEError, "PoE description")

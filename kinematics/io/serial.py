@@ -15,7 +15,6 @@ import contextlib
 import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Iterator, Mapping
 from xml.sax.saxutils import quoteattr
 
@@ -25,6 +24,7 @@ from ..errors import DHError, KinematicsError
 from ..spatial.rotations import matrix_to_rpy_exact
 from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE, RIGID_TOLERANCE
 from . import dh_table as dh
+from .text_files import fields, read_description_file  # noqa: F401 - fields: the descriptions read theirs with it
 
 #: joint types of a serial description (continuous: a revolute joint without limits)
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
@@ -101,6 +101,33 @@ def rotation(value: Any, where: str, angle_scale: float, cls: type[KinematicsErr
     return rigid(rows + [[0, 0, 0, 1]], where, 1.0, cls)[:3, :3]
 
 
+def joint_limits(raw: Mapping[str, Any], jtype: str, where: str, scale: float,
+                 cls: type[KinematicsError]) -> tuple[float, float] | None:
+    """A joint's ``limits`` (revolute ones in the description's angle unit, ``scale`` to radians), None
+    without them; a continuous joint has none."""
+    if "limits" not in raw:
+        return None
+    if jtype == "continuous":
+        raise cls(f"{where}.limits: a continuous joint has no limits")
+    return limits(raw["limits"], f"{where}.limits", scale if jtype != "prismatic" else 1.0, cls)
+
+
+def joint_row(joint, **row: Any) -> dict:
+    """A joint's canonical dict: ``row`` and its ``limits`` (when it has them)."""
+    if joint.limits is not None:
+        row["limits"] = [plain(joint.limits[0]), plain(joint.limits[1])]
+    return row
+
+
+def load_description(path, from_dict, cls: type[KinematicsError], what: str):
+    """``from_dict`` of a ``.yaml``/``.yml``/``.json`` file's mapping (errors name the file)."""
+    data = load_mapping(path, cls, what)
+    try:
+        return from_dict(data)
+    except cls as exc:
+        raise cls(f"{path}: {exc}") from None
+
+
 def joint_type(value: Any, where: str, cls: type[KinematicsError]) -> str:
     if not isinstance(value, str) or value.lower() not in _TYPE_ALIASES:
         raise cls(f"{where}: {value!r} is not one of {list(JOINT_TYPES)} (or R, P)")
@@ -141,17 +168,7 @@ def check_names(names: list[str], cls: type[KinematicsError]) -> None:
 
 def load_mapping(path, cls: type[KinematicsError], what: str) -> dict:
     """A ``.yaml``/``.yml``/``.json`` file's mapping (errors name the file)."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".yaml", ".yml", ".json"):
-        raise cls(f"{path}: a {what} file must end in .yaml, .yml or .json")
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise cls(f"{path}: {size} bytes; a {what} file may have at most {MAX_FILE_BYTES}")
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeError) as exc:
-        raise cls(f"{path}: cannot read the {what} file: {exc}") from None
+    text, suffix = read_description_file(path, cls, what)
     try:
         if suffix == ".json":
             data = json.loads(text)

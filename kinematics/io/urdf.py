@@ -28,9 +28,6 @@ from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE
 
 #: Default cap on the number of links (and of joints) in one model.
 DEFAULT_MAX_LINKS = 10_000
-#: Joint types URDF knows but this product refuses (none: floating and planar joints are read since
-#: the second wave, in Pinocchio's layout).
-UNSUPPORTED_TYPES: frozenset[str] = frozenset()
 #: The only plane normal a planar joint may have: Pinocchio's URDF reader makes every planar joint
 #: a JointModelPlanar, which moves in the x-y plane of the joint frame whatever <axis> says (and the
 #: URDF default axis is x), so any other axis would silently disagree with the reference.
@@ -157,9 +154,28 @@ def _is_xacro_namespace(ns: str | None) -> bool:
     return ns is not None and "xacro" in ns.lower()
 
 
+def _substitution(value: str) -> bool:
+    return "${" in value or "$(" in value
+
+
+def _mesh_file_names(root: ET.Element) -> dict[int, str]:
+    """``id(mesh element) -> where it is`` (``link 'x' <visual> <mesh filename>``) for every
+    ``<mesh>`` of a link's ``<visual>`` / ``<collision>`` geometry."""
+    found: dict[int, str] = {}
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for el in link.findall(kind):
+                for mesh in el.findall("geometry/mesh"):
+                    found[id(mesh)] = f"link {link.get('name')!r} <{kind}> <mesh filename>"
+    return found
+
+
 def xacro_use(root: ET.Element) -> str | None:
     """What makes the document xacro rather than URDF (an element or attribute in the xacro
-    namespace, a ``${...}`` expression or ``$(...)`` substitution), or None. ``xmlns:xacro`` declared but unused is URDF."""
+    namespace, a ``${...}`` expression or ``$(...)`` substitution), or None. ``xmlns:xacro`` declared
+    but unused is URDF, and so is a substitution left in a ``<mesh filename>`` (mesh files are never
+    opened: :func:`mesh_substitutions` names them for the model's warnings)."""
+    meshes = _mesh_file_names(root)
     for el in root.iter():
         if not isinstance(el.tag, str):
             continue
@@ -168,9 +184,24 @@ def xacro_use(root: ET.Element) -> str | None:
         for name, value in el.attrib.items():
             if _is_xacro_namespace(_namespace(name)):
                 return f"attribute xacro:{name.split('}', 1)[1]} on <{el.tag}>"
-            if "${" in value or "$(" in value:
-                return f"the expression {value[:60]!r} in <{el.tag} {name}>"
+            if _substitution(value) and not (name == "filename" and id(el) in meshes):
+                return f"expression {value[:60]!r} in <{el.tag} {name}>"
     return None
+
+
+def mesh_substitutions(root: ET.Element) -> list[str]:
+    """Where a ``$(...)`` / ``${...}`` is left in a ``<mesh filename>``, with the text:
+    ``link 'x' <visual> <mesh filename="$(find pkg)/m.stl">``."""
+    meshes = _mesh_file_names(root)
+    out = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for el in link.findall(kind):
+                for mesh in el.findall("geometry/mesh"):
+                    value = mesh.get("filename", "")
+                    if _substitution(value):
+                        out.append(f"{meshes[id(mesh)][:-1]}={value[:80]!r}>")
+    return out
 
 
 def _check_document(root: ET.Element, max_links: int) -> None:
@@ -187,28 +218,9 @@ def _check_document(root: ET.Element, max_links: int) -> None:
         raise ModelTooLargeError(
             f"robot has {len(links)} links and {len(joints)} joints; the limit is {max_links}"
         )
-    link_names: set[str] = set()
-    for i, el in enumerate(links):
-        name = el.get("name")
-        if not name:
-            raise URDFError(f"<link> number {i + 1} has no 'name' attribute")
-        if name in link_names:
-            raise URDFError(f"duplicate link name {name!r}")
-        link_names.add(name)
-    joint_names: set[str] = set()
-    for i, el in enumerate(joints):
-        name = el.get("name")
-        if not name:
-            raise URDFError(f"<joint> number {i + 1} has no 'name' attribute")
-        if name in joint_names:
-            raise URDFError(f"duplicate joint name {name!r}")
-        joint_names.add(name)
+    link_names = set(_unique_names(links, "link"))
+    for el, name in zip(joints, _unique_names(joints, "joint")):
         jt = el.get("type")
-        if jt in UNSUPPORTED_TYPES:
-            raise UnsupportedJointError(
-                f"joint {name!r} is of type {jt!r}, which is not supported; "
-                "give the root link's world pose in the request instead of a floating joint"
-            )
         if jt not in SUPPORTED_TYPES:
             raise URDFError(f"joint {name!r} has unknown type {jt!r}")
         for tag in ("parent", "child"):
@@ -346,6 +358,21 @@ def _sanitise(root: ET.Element, data: bytes) -> tuple[bytes, list[str]]:
         raise URDFError("URDF is nested too deeply to be read") from None
 
 
+def _unique_names(elements, tag: str) -> list[str]:
+    """The ``name`` of each ``<tag>`` element, in order; a missing or repeated name raises :class:`URDFError`."""
+    names: list[str] = []
+    seen: set[str] = set()
+    for i, el in enumerate(elements):
+        name = el.get("name")
+        if not name:
+            raise URDFError(f"<{tag}> number {i + 1} has no 'name' attribute")
+        if name in seen:
+            raise URDFError(f"duplicate {tag} name {name!r}")
+        seen.add(name)
+        names.append(name)
+    return names
+
+
 def _check_tree(link_names: Iterable[str], joints: list[Joint]) -> str:
     """Check that links and joints form one tree; return its root link."""
     link_names = list(link_names)
@@ -419,7 +446,11 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
             "which expands it); it is never read as a URDF with its macros left out"
         )
     _check_document(root_el, max_links)
+    substituted = mesh_substitutions(root_el)
     cleaned, ignored = _sanitise(root_el, data)
+    if substituted:
+        ignored.append(f"{len(substituted)} mesh file name(s) keep a xacro substitution ({_names(substituted)}): "
+                       "left as written -- mesh files are never opened, and the kinematics do not use them")
 
     import yourdfpy  # heavy import, kept local
 

@@ -61,6 +61,8 @@ def warm_up() -> None:
     pose = fk(model, [0.5]).poses[0, 0]
     fk(model, [0.0]).components()
     jacobian(model, [0.0], link="arm")
+    fk(model, [[0.5], [0.0]])  # a batch (one row takes the single-configuration entries of engine/single.py)
+    jacobian(model, [[0.0], [0.5]], link="arm")
     velocity(model, [0.0], [0.0])
     workspace(model, "arm", samples=8)
     ik(model, pose, link="arm")

@@ -149,6 +149,8 @@ class Query:
     def __post_init__(self) -> None:
         if self.limits not in LIMIT_POLICIES:
             raise KinematicsError(f"limits: {self.limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
+        if self.links is not None and not isinstance(self.links, (str, tuple)):
+            object.__setattr__(self, "links", tuple(self.links))  # a frozen query holds no list
         object.__setattr__(self, "robot", model_for(self.model, self.floating_base))
         object.__setattr__(self, "T_tool", tool_offset(self.point, self.tool))
 

@@ -1,6 +1,6 @@
 """Schemathesis hooks of the live conformance test (``SCHEMATHESIS_HOOKS=tests.app.schemathesis_hooks``).
 
-Two checks are registered, each run *instead of* a built-in one (the test excludes those):
+Four checks are registered, each run *instead of* a built-in one (the test excludes those):
 
 :func:`positive_data_acceptance_semantic` replaces ``positive_data_acceptance`` (ST202). The built-in one fails every schema-valid request that is
 not answered 2xx/401/403/404/409/429. Part of this service's validation cannot be written in
@@ -35,11 +35,15 @@ resource missing, so it is not counted; every other 404 still is.
 from __future__ import annotations
 
 import schemathesis
-from schemathesis.specs.openapi.checks import ensure_resource_availability, positive_data_acceptance
+from schemathesis.checks import not_a_server_error
+from schemathesis.specs.openapi.checks import (ensure_resource_availability, negative_data_rejection,
+                                               positive_data_acceptance)
 
 from app.errors import KINEMATICS_ERRORS, PROBLEM_TYPE_PREFIX
 
 BUDGETS = ("verify", "result", "ik-work")
+#: the budgets the document states (``maximum``, ``maxItems``): their refusals of schema-invalid requests
+LIMIT_TYPES = frozenset(PROBLEM_TYPE_PREFIX + f"{budget}-too-large" for budget in ("batch", "workspace-samples"))
 #: problem types that depend on the model or on the content of a description (see the docstring)
 SEMANTIC_TYPES = frozenset(
     {PROBLEM_TYPE_PREFIX + slug for _, status, slug, _ in KINEMATICS_ERRORS if status == 422}
@@ -57,6 +61,27 @@ def _problem_type(response) -> str | None:
     except Exception:
         return None
     return body.get("type") if isinstance(body, dict) else None
+
+
+@schemathesis.check
+def negative_data_rejection_of_limits(ctx, response, case):
+    """``negative_data_rejection`` (ST201), except that a request over a limit the document states from
+    the server's settings (``samples`` over its ``maximum``, a batch over its ``maxItems``) is refused
+    with the budget's own answer, 413 ``workspace-samples-too-large`` / ``batch-too-large`` naming the
+    setting and its limit, rather than a generic 422: a refusal all the same."""
+    if response.status_code == 413 and _problem_type(response) in LIMIT_TYPES:
+        return None
+    return negative_data_rejection(ctx, response, case)
+
+
+@schemathesis.check
+def not_a_server_error_but_time_budgets(ctx, response, case):
+    """``not_a_server_error`` (ST101), except the documented 503 ``time-budget-exceeded``: a request
+    (a closed form over ``KIN_SYMBOLIC_TIMEOUT`` or its own shorter ``timeout``, heavy work over
+    ``KIN_REQUEST_TIMEOUT``) that ran out of its time budget, answered as the operation documents it."""
+    if response.status_code == 503 and _problem_type(response) == PROBLEM_TYPE_PREFIX + "time-budget-exceeded":
+        return None
+    return not_a_server_error(ctx, response, case)
 
 
 @schemathesis.check

@@ -9,16 +9,11 @@ import numpy as np
 import pytest
 
 from kinematics import default_catalogue
+from tests.helpers import npy_bytes
 
 PROBLEM = "application/problem+json"
 NPY = "application/x-npy"
 REPRESENTATIONS = ["rpy", "zyx", "zyz", "quaternion", "rotvec"]
-
-
-def _npy(a) -> bytes:
-    buf = io.BytesIO()
-    np.save(buf, np.asarray(a, dtype=float))
-    return buf.getvalue()
 
 
 def _configurations(rng, n=6):
@@ -96,7 +91,7 @@ def test_one_configuration_components_and_a_point(api_client, rng):
 @pytest.mark.parametrize("rep", ["rpy", "quaternion"])
 def test_npy_equals_json(api_client, rng, rep):
     Q = _configurations(rng, 5)
-    r = api_client.post(f"/models/ur5/jacobian?link=tool0&representation={rep}", content=_npy(Q),
+    r = api_client.post(f"/models/ur5/jacobian?link=tool0&representation={rep}", content=npy_bytes(Q),
                         headers={"Content-Type": NPY, "Accept": NPY})
     assert r.status_code == 200, r.text
     out = np.load(io.BytesIO(r.content), allow_pickle=False)
@@ -110,7 +105,7 @@ def test_npy_equals_json(api_client, rng, rep):
     assert r.headers["X-Link"] == "tool0" and r.headers["X-Reference"] == "local_world_aligned"
     # components, repeated or comma-separated
     r = api_client.post("/models/ur5/jacobian?link=tool0&representation=rpy&components=pz,yaw&components=px",
-                        content=_npy(Q), headers={"Content-Type": NPY, "Accept": NPY})
+                        content=npy_bytes(Q), headers={"Content-Type": NPY, "Accept": NPY})
     assert r.status_code == 200, r.text
     assert np.load(io.BytesIO(r.content)).shape == (5, 3, 7) and r.headers["X-Components"] == "pz,yaw,px"
 
@@ -136,7 +131,7 @@ def test_rpy_gimbal_lock_is_a_problem_as_on_the_task_route(api_client, rng):
     r = api_client.post("/models/ur5/jacobian", json={**req, "components": ["px", "py", "pz"]})
     assert r.status_code == 200 and np.isfinite(r.json()["jacobian"]).all()
     # .npy: ZYZ at theta = 0 (the SCARA's tool at q = 0)
-    n = api_client.post("/models/scara/jacobian?representation=zyz", content=_npy([[0.1, 0.2, 0.0, 0.3], [0] * 4]),
+    n = api_client.post("/models/scara/jacobian?representation=zyz", content=npy_bytes([[0.1, 0.2, 0.0, 0.3], [0] * 4]),
                         headers={"Content-Type": NPY, "Accept": NPY})
     assert n.status_code == 422 and n.json()["type"].endswith("representation-singularity")
 
@@ -157,7 +152,7 @@ def test_every_schema_valid_combination_is_answered(api_client):
     checked = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "verify": True}).json()
     assert checked["jacobian"] == base["jacobian"]
     assert checked["verification"]["max_jacobian_error"] < 1e-9
-    n = api_client.post("/models/ur5/jacobian?representation=rpy&verify=true", content=_npy([0.1] * 6),
+    n = api_client.post("/models/ur5/jacobian?representation=rpy&verify=true", content=npy_bytes([0.1] * 6),
                         headers={"Content-Type": NPY, "Accept": NPY})
     assert n.status_code == 200 and float(n.headers["X-Max-Jacobian-Error"]) < 1e-9
     fb = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "floating_base": True,
@@ -172,7 +167,7 @@ def test_explicit_local_world_aligned_and_bad_components(api_client):
     bad = api_client.post("/models/ur5/jacobian", json={"q": [0.1] * 6, "representation": "rpy",
                                                         "components": ["qw"]})
     assert bad.status_code == 422 and bad.json()["type"].endswith("invalid-task-representation")
-    bad = api_client.post("/models/ur5/jacobian?representation=euler", content=_npy([0.1] * 6),
+    bad = api_client.post("/models/ur5/jacobian?representation=euler", content=npy_bytes([0.1] * 6),
                           headers={"Content-Type": NPY})
     assert bad.status_code == 422
     plain = api_client.post("/models/ur5/jacobian", json={"q": [0.1] * 6})

@@ -10,7 +10,7 @@ stateful phases; positive and negative data). Run twice:
 * **keyed** (``KIN_API_KEY`` set, the key sent with ``-H X-API-Key``): writes declare and need
   the key; schemathesis also drops it to check that they are refused without it.
 
-Every failure fails the test, with the schemathesis report in the message. Two checks are
+Every failure fails the test, with the schemathesis report in the message. Four checks are
 replaced, not weakened blindly (``tests/app/schemathesis_hooks.py`` says why, in full):
 
 * ``positive_data_acceptance`` (ST202) by ``positive_data_acceptance_semantic``, which accepts a
@@ -19,7 +19,12 @@ replaced, not weakened blindly (``tests/app/schemathesis_hooks.py`` says why, in
   model, an XML string that is not a robot, a budget over the server's settings);
 * ``ensure_resource_availability`` (ST302) by ``resource_availability_of_models``, which does not
   count a 404 ``unknown-link`` naming the just-created model (the model was found; a link named
-  in the body is not one of its links).
+  in the body is not one of its links);
+* ``negative_data_rejection`` (ST201) by ``negative_data_rejection_of_limits``, which takes the 413
+  ``workspace-samples-too-large`` / ``batch-too-large`` answer to a request over a limit the document
+  states from the settings (``maximum``, ``maxItems``) as the refusal it is;
+* ``not_a_server_error`` (ST101) by ``not_a_server_error_but_time_budgets``, which takes the documented
+  503 ``time-budget-exceeded`` (a closed form over its time limit) as the answer it is.
 
 Everything else they refuse is a failure as before.
 
@@ -28,7 +33,8 @@ to explore another), one schemathesis worker; about 25 s per run on 2 cores.
 Reproduce by hand (with a server on port 8000)::
 
     SCHEMATHESIS_HOOKS=tests.app.schemathesis_hooks schemathesis run http://127.0.0.1:8000/openapi.json \\
-        --checks all --exclude-checks positive_data_acceptance,ensure_resource_availability -n 10 --seed 20261201
+        --checks all --exclude-checks positive_data_acceptance,ensure_resource_availability,negative_data_rejection,\\
+        not_a_server_error -n 10 --seed 20261201
 """
 
 from __future__ import annotations
@@ -49,7 +55,8 @@ MAX_EXAMPLES = 10
 SEED = int(os.environ.get("KIN_CONFORMANCE_SEED", "20261201"))
 API_KEY = "conformance-key"
 #: the built-in check replaced by the hooks module's stricter-where-it-can version (see above)
-REPLACED_CHECKS = ("positive_data_acceptance", "ensure_resource_availability")
+REPLACED_CHECKS = ("positive_data_acceptance", "ensure_resource_availability", "negative_data_rejection",
+                   "not_a_server_error")
 
 
 def run_schemathesis(url: str, report_dir, headers: dict[str, str] | None = None) -> tuple[dict, str]:

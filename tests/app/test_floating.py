@@ -9,12 +9,7 @@ import numpy as np
 import pytest
 
 from tests.paths import FIXTURES
-
-
-def _npy(a) -> bytes:
-    buf = io.BytesIO()
-    np.save(buf, np.asarray(a, dtype=np.float64))
-    return buf.getvalue()
+from tests.helpers import npy_bytes
 
 
 UR5_Q = [0.1, -0.5, 0.7, 0.2, -0.3, 0.4]
@@ -74,13 +69,13 @@ def test_non_unit_quaternion_is_422_naming_the_joint_unless_normalize(api_client
 
 def test_npy_shapes_follow_nq_and_nv(api_client):
     q = np.array([ROOT + UR5_Q] * 3)
-    r = api_client.post("/models/ur5/jacobian?floating_base=true", content=_npy(q),
+    r = api_client.post("/models/ur5/jacobian?floating_base=true", content=npy_bytes(q),
                         headers={"content-type": "application/x-npy", "accept": "application/x-npy"})
     assert r.status_code == 200 and np.load(io.BytesIO(r.content)).shape == (3, 6, 12)
-    r = api_client.post("/models/ur5/velocity?floating_base=true", content=_npy(np.hstack([q, np.zeros((3, 12))])),
+    r = api_client.post("/models/ur5/velocity?floating_base=true", content=npy_bytes(np.hstack([q, np.zeros((3, 12))])),
                         headers={"content-type": "application/x-npy", "accept": "application/x-npy"})
     assert r.status_code == 200 and np.load(io.BytesIO(r.content)).shape == (3, 12, 3, 6)
-    r = api_client.post("/models/ur5/velocity?floating_base=true", content=_npy(np.zeros((3, 24))),
+    r = api_client.post("/models/ur5/velocity?floating_base=true", content=npy_bytes(np.zeros((3, 24))),
                         headers={"content-type": "application/x-npy"})
     assert r.status_code == 422 and "nq 13, nv 12" in r.json()["detail"]
 

@@ -7,16 +7,11 @@ import io
 import numpy as np
 import pytest
 
-from kinematics import compile_model, default_catalogue
+from kinematics import compile_model
 from kinematics.algorithms.ik import pose_errors
 from kinematics.spatial.transforms import pose_components
 
 PROBLEM = "application/problem+json"
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 def _targets(model, n, seed=3):

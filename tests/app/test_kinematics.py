@@ -7,21 +7,16 @@ import io
 import numpy as np
 import pytest
 
-from kinematics import compile_model, default_catalogue
+from kinematics import compile_model
 from kinematics.algorithms.measures import conditioning
 from kinematics.spatial.transforms import pose_components
 from kinematics.verify.pinocchio import PINOCCHIO_VERSION, reference_for
+from tests.helpers import PINOCCHIO_TOL
 
 #: our PoE vs Pinocchio (docs/design.md quality bar)
-PINOCCHIO_TOL = 1e-9
 #: JSON round trip of float64 (orjson writes the shortest repr, which reads back exactly)
 EXACT = 0.0
 PROBLEM = "application/problem+json"
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 @pytest.fixture(scope="module")

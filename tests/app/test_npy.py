@@ -8,26 +8,15 @@ from urllib.parse import unquote
 import numpy as np
 import pytest
 
-from kinematics import compile_model, default_catalogue
+from kinematics import compile_model
+from tests.helpers import PINOCCHIO_TOL, npy_bytes
 
 NPY = "application/x-npy"
 PROBLEM = "application/problem+json"
-PINOCCHIO_TOL = 1e-9
-
-
-def npy_bytes(arr) -> bytes:
-    buf = io.BytesIO()
-    np.save(buf, arr, allow_pickle=True)
-    return buf.getvalue()
 
 
 def load(body: bytes) -> np.ndarray:
     return np.load(io.BytesIO(body), allow_pickle=False)
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 @pytest.fixture(scope="module")

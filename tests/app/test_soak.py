@@ -1,7 +1,8 @@
 """Soak: a bounded mixed load on a real server with 2 workers (``python -m app --workers 2``).
 
-Several client threads send, in a random order, for ``KIN_SOAK_SECONDS`` (default 60; set it
-higher for a longer run, e.g. ``KIN_SOAK_SECONDS=900``): uploads of their own URDF (each client
+Several client threads send, in a random order, for ``KIN_SOAK_SECONDS`` (default 20 in
+``make test``, which every kind of request fills many times; set it higher for a real soak,
+e.g. ``KIN_SOAK_SECONDS=900``): uploads of their own URDF (each client
 one fixture), FK and Jacobians on it, and its deletion; FK batches (JSON, one large enough for the
 decoder process and an answer in parts, and ``.npy``),
 Jacobians, IK and workspaces on catalogue robots. Every request goes on a new connection, so
@@ -31,24 +32,17 @@ from kinematics import api
 from kinematics.io.catalogue import default_catalogue
 from tests.live import LiveServer
 from tests.paths import FIXTURES
+from tests.helpers import npy_bytes
 
 pytestmark = pytest.mark.slow
 
-SECONDS = float(os.environ.get("KIN_SOAK_SECONDS", "60"))
+SECONDS = float(os.environ.get("KIN_SOAK_SECONDS", "20"))
 CLIENTS = 4
 #: end RSS <= warm-up RSS x this + SLACK
 GROWTH = 1.2
 SLACK = 32 * 1024 * 1024
 URDFS = ["planar_2r.urdf", "planar_3r.urdf", "spatial_3r.urdf", "tree_mimic.urdf"]
 CLOSE = {"Connection": "close"}
-
-
-def _npy(a: np.ndarray) -> bytes:
-    import io
-
-    buf = io.BytesIO()
-    np.save(buf, a)
-    return buf.getvalue()
 
 
 def _catalogue_requests() -> dict[str, tuple]:
@@ -59,7 +53,7 @@ def _catalogue_requests() -> dict[str, tuple]:
     T = api.fk(ur5, ur5.sample_configurations(60, rng), links=["tool0"]).poses[:, 0]
     return {
         "fk": ("POST", "/models/ur5/fk", {"json": {"q": Q.tolist(), "links": "all"}}, 200),
-        "fk_npy": ("POST", "/models/ur5/fk", {"content": _npy(ur5.sample_configurations(20_000, rng)),
+        "fk_npy": ("POST", "/models/ur5/fk", {"content": npy_bytes(ur5.sample_configurations(20_000, rng)),
                                              "headers": {"Content-Type": "application/x-npy",
                                                          "Accept": "application/x-npy"}}, 200),
         "jacobian": ("POST", "/models/panda/jacobian",

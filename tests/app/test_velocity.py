@@ -7,24 +7,14 @@ import io
 import numpy as np
 import pytest
 
-from kinematics import api, compile_model, default_catalogue
+from kinematics import api, compile_model
 from kinematics.tolerances import AGREEMENT_TOLERANCE
+from tests.helpers import npy_bytes
 
 PROBLEM = "application/problem+json"
 NPY = "application/x-npy"
 Q = [0.1, -1.2, 1.0, 0.3, 0.8, -0.2]
 QD = [0.5, -0.3, 0.2, 0.0, 1.0, 0.4]
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
-
-
-def _npy(a) -> bytes:
-    buf = io.BytesIO()
-    np.save(buf, np.asarray(a, dtype=np.float64))
-    return buf.getvalue()
 
 
 def test_one_configuration(api_client, ur5):
@@ -72,7 +62,7 @@ def test_npy_in_and_out(api_client, ur5):
     rng = np.random.default_rng(0)
     q = ur5.sample_configurations(300, rng)
     qd = rng.uniform(-1, 1, q.shape)
-    r = api_client.post("/models/ur5/velocity?links=tool0,wrist_1_link&verify=true", content=_npy(np.hstack([q, qd])),
+    r = api_client.post("/models/ur5/velocity?links=tool0,wrist_1_link&verify=true", content=npy_bytes(np.hstack([q, qd])),
                         headers={"Content-Type": NPY, "Accept": NPY})
     assert r.status_code == 200, r.text
     assert r.headers["x-twist-references"] == "world,local,local_world_aligned"
@@ -84,7 +74,7 @@ def test_npy_in_and_out(api_client, ur5):
     for c, ref in enumerate(("world", "local", "local_world_aligned")):
         np.testing.assert_array_equal(V[:, :, c], expected[ref])
     # an .npy body with a JSON answer, and a point as a query parameter
-    r = api_client.post("/models/ur5/velocity?links=tool0&point=0,0,0.1", content=_npy(np.hstack([q[0], qd[0]])),
+    r = api_client.post("/models/ur5/velocity?links=tool0&point=0,0,0.1", content=npy_bytes(np.hstack([q[0], qd[0]])),
                         headers={"Content-Type": NPY})
     assert r.status_code == 200, r.text
     np.testing.assert_allclose(r.json()["velocities"]["tool0"]["linear"],
@@ -112,7 +102,7 @@ def test_bad_requests_name_the_problem(api_client, body, status, fragment):
 
 def test_npy_of_the_wrong_width_and_budgets(make_client, ur5):
     client = make_client(max_batch=3, max_result_values=500)
-    r = client.post("/models/ur5/velocity", content=_npy(np.zeros((2, 6))), headers={"Content-Type": NPY})
+    r = client.post("/models/ur5/velocity", content=npy_bytes(np.zeros((2, 6))), headers={"Content-Type": NPY})
     assert r.status_code == 422 and "[q | qdot]" in r.json()["detail"]
     r = client.post("/models/ur5/velocity", json={"q": [Q] * 4, "qdot": [QD] * 4})
     assert r.status_code == 413 and r.json()["type"].endswith("batch-too-large")
@@ -148,11 +138,11 @@ def test_fk_jacobian_and_ik_routes_take_point_and_tool(api_client, ur5):
     assert r.json()["success"] is True
     assert r.json()["verification"]["position_error"] <= 1e-6 + AGREEMENT_TOLERANCE
     # .npy bodies take a point as a query parameter
-    r = api_client.post("/models/ur5/fk?links=tool0&point=0,0,0.1", content=_npy([Q]),
+    r = api_client.post("/models/ur5/fk?links=tool0&point=0,0,0.1", content=npy_bytes([Q]),
                         headers={"Content-Type": NPY, "Accept": NPY})
     np.testing.assert_allclose(np.load(io.BytesIO(r.content))[0, 0],
                                api.fk(ur5, Q, links=["tool0"], point=[0, 0, 0.1]).poses[0, 0], atol=1e-15)
-    r = api_client.post("/models/ur5/jacobian?link=tool0&point=0,0,a", content=_npy([Q]), headers={"Content-Type": NPY})
+    r = api_client.post("/models/ur5/jacobian?link=tool0&point=0,0,a", content=npy_bytes([Q]), headers={"Content-Type": NPY})
     assert r.status_code == 422 and r.json()["field"] == "point"
     r = api_client.post("/models/ur5/fk", json={"q": Q, "tool": {"xyz": [0, 0, 0]}})
     assert r.status_code == 422

@@ -121,6 +121,18 @@ def _open(driver, url: str) -> None:
           "viewerState.ready")
 
 
+def _frames_drawn(driver, count: int = 2) -> None:
+    """Return once the page has run ``count`` more animation frames (a change made before is drawn)."""
+    driver.execute_async_script(
+        "const done = arguments[arguments.length - 1]; let n = arguments[0];"
+        "const step = () => (--n <= 0 ? done() : requestAnimationFrame(step)); requestAnimationFrame(step);", count)
+
+
+def _changed_fraction(before, after) -> float:
+    """The fraction of the canvas's pixels that differ visibly between two images."""
+    return float((np.abs(np.asarray(after, dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30).mean())
+
+
 def _canvas_image(driver):
     from PIL import Image
 
@@ -300,9 +312,8 @@ def test_dh_editor_builds_shows_and_downloads_a_model(server, browser):
     # download URDF saves exactly GET /models/{id}/urdf
     browser.find_element(By.ID, "dh-download").click()
     target = browser.downloads / f"{model_id}.urdf"
-    _wait(browser, lambda d: target.exists() and target.stat().st_size > 0, "the downloaded URDF")
-    time.sleep(0.2)
-    assert target.read_text() == httpx.get(f"{server}/models/{model_id}/urdf").text
+    served = httpx.get(f"{server}/models/{model_id}/urdf").text
+    _wait(browser, lambda d: target.exists() and target.read_text() == served, "the downloaded URDF, complete")
 
     # the editor reloads the table of the shown model; building it again gives the same model
     browser.find_element(By.ID, "dh-edit-current").click()
@@ -382,10 +393,7 @@ def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(serv
     target = browser.execute_script("return window.viewerTest.targetPose()")
     position_error, rotation_error = _pose_error(_ur5_fk(q0, first), target["position"], target["quaternion"])
     assert position_error < 1e-9 and rotation_error < 1e-7
-    time.sleep(0.2)
-    with_gizmo = _canvas_image(browser)
-    diff = np.abs(np.asarray(with_gizmo, dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30
-    assert diff.mean() > MIN_CHANGED_FRACTION, f"the gizmo changed only {diff.mean():.4%} of the canvas"
+    _wait(browser, lambda d: _changed_fraction(before, _canvas_image(d)) > MIN_CHANGED_FRACTION, "the gizmo drawn")
 
     # picking another link in the list moves the target onto it
     Select(browser.find_element(By.ID, "link-list")).select_by_value("tool0")
@@ -424,7 +432,7 @@ def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(serv
           "the pose panel at the target")
     labels = browser.execute_script("return [...document.querySelectorAll('#sliders .value')].map(e => e.textContent)")
     assert [float(t.split()[0]) for t in labels] == pytest.approx(q, abs=10 ** -PANEL_DECIMALS)
-    time.sleep(0.2)
+    _frames_drawn(browser)
     ARTIFACTS.mkdir(exist_ok=True)
     shot = ARTIFACTS / "viewer_ik_solved.png"
     browser.save_screenshot(str(shot))
@@ -463,9 +471,8 @@ def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(serv
     # the rotate gizmo is drawn instead of the arrows
     before = _canvas_image(browser)
     Select(browser.find_element(By.ID, "ik-gizmo-mode")).select_by_value("rotate")
-    time.sleep(0.2)
-    diff = np.abs(np.asarray(_canvas_image(browser), dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30
-    assert diff.mean() > MIN_CHANGED_FRACTION, f"the rotate gizmo changed only {diff.mean():.4%} of the canvas"
+    _wait(browser, lambda d: _changed_fraction(before, _canvas_image(d)) > MIN_CHANGED_FRACTION,
+          "the rotate gizmo drawn instead of the arrows")
     browser.save_screenshot(str(ARTIFACTS / "viewer_ik_rotate.png"))
 
     # turning it off hides the gizmo and the status; moving a slider works as before
@@ -494,7 +501,7 @@ def test_dragging_the_gizmo_with_the_mouse_moves_the_arm(server, browser):
     link = _state(browser)["selectedLink"]
     start = browser.execute_script("return window.viewerTest.targetPose()")
     np.testing.assert_allclose(start["position"], _ur5_fk(q0, link)[:3, 3], atol=1e-9)
-    time.sleep(0.2)
+    _frames_drawn(browser)
 
     # press on the x arrow of the gizmo, drag it to the right in small steps, release
     handle = browser.execute_script("return window.viewerTest.gizmoHandlePoint('X')")

@@ -23,6 +23,7 @@ def test_summary_json(api_client):
     assert body["bounding_box"]["max"] == ws.bounding_box[1].tolist()
     assert body["reach"] == ws.reach and body["volume"] == ws.volume and "area" not in body
     assert body["convergence"] == [{"samples": n, "volume": v} for n, v in ws.convergence]
+    assert body["converged"] == ws.converged and body["advice"] == ws.advice
     assert body["voxel"] == ws.voxel and body["cell"] == ws.cell.tolist()
     assert body["occupied_voxels"] == len(ws.voxel_centers)
     assert body["manipulability"]["max"] == ws.manipulability.max()
@@ -90,3 +91,34 @@ def test_openapi_documents_workspace(api_client):
     op = spec["paths"]["/models/{model_id}/workspace"]["post"]
     assert "application/x-npz" in op["responses"]["200"]["content"]
     assert "WorkspaceRequest" in spec["components"]["schemas"]
+
+
+def test_a_voxel_too_fine_for_the_samples_says_so_instead_of_answering_zero(api_client):
+    """The request that answered volume 0.0 (convergence 0 / 0 / 0) beside 135,762 occupied cells."""
+    r = api_client.post("/models/ur5/workspace", json={"link": "tool0", "samples": 200000, "random_seed": 7,
+                                                       "voxel": 0.02})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    occupied = body["occupied_voxels"] * math.prod(body["cell"])
+    assert body["occupied_voxels"] > 100_000
+    assert body["volume"] >= occupied > 1.0
+    assert all(step["volume"] > 0 for step in body["convergence"])
+    assert body["converged"] is False
+    assert "too sparse" in body["advice"] and "larger voxels" in body["advice"] and "more samples" in body["advice"]
+    coarse = api_client.post("/models/panda/workspace", json={"link": "panda_hand", "samples": 200000,
+                                                              "random_seed": 7, "voxel": 0.1}).json()
+    assert coarse["converged"] is True and coarse["advice"] is None
+    assert 0 < coarse["volume"] < coarse["occupied_voxels"] * math.prod(coarse["cell"])  # the boundary layer removed
+
+
+@pytest.mark.parametrize("model_id, link", [("ur5", "tool0"), ("panda", "panda_hand"), ("puma560_standard", None),
+                                            ("ur5_dh", None)])
+def test_fine_voxels_on_several_arms_answer_what_the_samples_show(api_client, model_id, link):
+    body = {"samples": 50000, "random_seed": 3, "voxel": 0.015} | ({"link": link} if link else {})
+    r = api_client.post(f"/models/{model_id}/workspace", json=body)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    occupied = answer["occupied_voxels"] * math.prod(answer["cell"])
+    assert answer["volume"] == pytest.approx(occupied, rel=1e-12) and answer["volume"] > 0
+    assert [s["volume"] for s in answer["convergence"]] == sorted(s["volume"] for s in answer["convergence"])
+    assert answer["converged"] is False and "too sparse" in answer["advice"]

@@ -8,7 +8,6 @@ line naming the problem on stderr, never a traceback, and writes no output file.
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ import yaml
 
 from kinematics.cli import main
 from tests.paths import CORPUS
+from tests.helpers import write_npy
 
 MANIFEST = yaml.safe_load((CORPUS / "manifest.yaml").read_text())
 ARM = CORPUS / "fixture_arm.urdf"
@@ -56,13 +56,6 @@ def test_corpus_dh_table(item, tmp_path, capsys):
     assert not out.exists()
 
 
-def _npy(path: Path, array: np.ndarray) -> Path:
-    buf = io.BytesIO()
-    np.save(buf, array, allow_pickle=True)
-    path.write_bytes(buf.getvalue())
-    return path
-
-
 @pytest.mark.parametrize(
     "name, array, contains",
     [
@@ -74,7 +67,7 @@ def _npy(path: Path, array: np.ndarray) -> Path:
 )
 def test_bad_joint_value_files(name, array, contains, tmp_path, capsys):
     out = tmp_path / "out.npy"
-    code, err = _run(["fk", "--urdf", ARM, _npy(tmp_path / f"{name}.npy", array), "-o", out], capsys)
+    code, err = _run(["fk", "--urdf", ARM, write_npy(tmp_path / f"{name}.npy", array), "-o", out], capsys)
     assert code == EXIT_USAGE
     assert contains.lower() in err.lower(), err
 

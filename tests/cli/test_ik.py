@@ -28,11 +28,6 @@ SUMMARY = re.compile(r"^ik: solved (\d+)/(\d+) targets \(([\d.]+)%\); worst posi
 
 
 @pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
-
-
-@pytest.fixture(scope="module")
 def targets(ur5):
     """(N, 4, 4) poses of tool0 at random configurations."""
     Q = ur5.sample_configurations(N, np.random.default_rng(11))

@@ -14,11 +14,6 @@ from kinematics.cli import main
 from tests.rosbag_files import joint_states, write_bag, write_joint_parquet
 
 
-@pytest.fixture(scope="module")
-def ur5(catalogue):
-    return catalogue.get("ur5")
-
-
 @pytest.mark.parametrize("kind", ["mcap", "db3", "bag"])
 def test_fk_bag_to_parquet(tmp_path, ur5, kind, capsys):
     Q, times, msgs = joint_states(ur5, 40)

@@ -29,11 +29,6 @@ TOL = 1e-12
 
 
 @pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
-
-
-@pytest.fixture(scope="module")
 def Q(ur5):
     return ur5.sample_configurations(57, np.random.default_rng(7))
 

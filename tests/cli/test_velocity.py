@@ -8,15 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from kinematics import api, default_catalogue
+from kinematics import api
 from kinematics.cli import main
 
 N = 30
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 @pytest.fixture(scope="module")

@@ -39,11 +39,6 @@ from kinematics.verify.pinocchio import REFERENCE_NAME
 from tests.paths import FIXTURES, REPO
 
 
-@pytest.fixture(scope="module")
-def ur5():
-    return kinematics.default_catalogue().get("ur5")
-
-
 def configurations(model, n, seed=3):
     return model.sample_configurations(n, np.random.default_rng(seed), continuous_range=np.pi)
 

@@ -23,11 +23,11 @@ from hypothesis import strategies as st
 from kinematics import REFERENCES, as_batch, compile_model, parse_urdf
 from kinematics.algorithms.dh import dh_tool_pose, dh_transforms
 from kinematics.io import dh_table as dh
+from tests.helpers import PINOCCHIO_TOL
 
 #: examples per property (keeps the file in seconds on 2 cores)
 MAX_EXAMPLES = 100
 #: agreement with Pinocchio (docs/design.md quality bar)
-PINOCCHIO_TOL = 1e-9
 #: rigid-transform checks on FK output
 ORTHO_TOL = 1e-12
 #: central-difference step and tolerance (truncation ~h^2, round-off ~eps/h)

@@ -181,3 +181,74 @@ def test_tiny_voxel_and_few_samples_found_by_the_fuzzer():
     for n, dim in ((1, 0), (2, 1), (3, 2)):
         ws = api.workspace(hand, samples=n)
         assert ws.dimension == dim and ws.samples == n
+
+
+@pytest.mark.parametrize("model_id, link", [("ur5", "tool0"), ("panda", "panda_hand"), ("puma560_standard", None),
+                                            ("ur5_dh", None)])
+def test_fine_voxels_never_fall_below_the_occupied_cells(catalogue, model_id, link):
+    """A voxel too fine for the samples (most samples alone in their cell) used to extrapolate the
+    volume to 0 (2 V(h) - V(2h) with V(2h) near 8 V(h)). Now the estimate is the occupied cells'
+    volume, not converged, with the advice to give a larger voxel or more samples; from coarse to
+    fine voxels no estimate is 0 or below half the occupied volume."""
+    model = catalogue.get(model_id)
+    link = link or model.leaf_links[0]
+    P, M = W.sample_workspace(model, link, 100_000, random_seed=7)
+    for voxel in (0.15, 0.1, 0.05, 0.03, 0.02, 0.01):
+        ws = W.analyse(P, M, voxel=voxel)
+        occupied = len(ws.voxel_centers) * float(np.prod(ws.cell))
+        assert ws.occupied == pytest.approx(occupied, rel=1e-12)
+        assert ws.dimension == 3 and ws.volume > 0
+        assert ws.volume >= 0.5 * occupied
+        assert [v > 0 for _, v in ws.convergence] == [True] * 3
+        assert ws.converged == (ws.advice is None)
+        if ws.samples < W.MIN_SAMPLES_PER_CELL * len(ws.voxel_centers):  # sparse: what the samples show, and said so
+            assert ws.volume == occupied and not ws.converged
+            assert "too sparse" in ws.advice and "larger voxels" in ws.advice and "more samples" in ws.advice
+    fine = W.analyse(P, M, voxel=0.02)
+    assert fine.samples / len(fine.voxel_centers) < 2 and fine.volume == fine.occupied
+    assert [v for _, v in fine.convergence] == sorted(v for _, v in fine.convergence)  # still growing: not converged
+
+
+def test_sparse_box_is_a_lower_bound_and_a_dense_one_exact():
+    """A Cartesian arm sweeps a box whose faces lie on the grid: every occupied cell lies inside it,
+    so with a voxel too fine for the samples the estimate (the occupied cells) is below the box and
+    above 0; with cells the samples fill it is the box, converged."""
+    a, b, c = 0.5, 0.4, 0.3
+    model = parse_urdf(cartesian(a, b, c))
+    sparse = api.workspace(model, "carriage", samples=20_000, voxel=0.02)  # 2.7 samples per cell of the box
+    assert 0.5 * a * b * c < sparse.volume <= a * b * c
+    assert sparse.volume == sparse.occupied and not sparse.converged and "too sparse" in sparse.advice
+    dense = api.workspace(model, "carriage", samples=20_000, voxel=0.05)
+    assert dense.converged and dense.advice is None
+    assert dense.volume == pytest.approx(a * b * c, rel=BOX_TOLERANCE)
+
+
+def test_converged_answers_have_no_advice_and_a_drifting_estimate_says_so(catalogue):
+    ws = api.workspace(parse_urdf(planar_2r(0.5, 0.4, True)), "tool")
+    assert ws.converged and ws.advice is None
+    drifting = W._verdict(1000, 0.1, 3, (10, 1.0, 1.2), True, 0.8, 1.0, None)
+    assert drifting[0] is False and "changes by 20.0%" in drifting[1] and "more samples" in drifting[1]
+
+
+def test_a_planar_arm_with_a_fine_voxel_answers_the_occupied_area():
+    model = parse_urdf(planar_2r(0.5, 0.4, True))
+    exact = math.pi * (0.9**2 - 0.1**2)
+    ws = api.workspace(model, "tool", samples=20_000, voxel=0.002)  # 630,000 cells in the annulus
+    assert ws.dimension == 2 and ws.volume == 0.0
+    assert ws.area == ws.occupied == pytest.approx(len(ws.voxel_centers) * ws.cell[0] * ws.cell[1], rel=1e-12)
+    assert 0 < ws.area < exact and not ws.converged and "area is that of the occupied cells" in ws.advice
+
+
+def test_the_interior_floor_is_the_cells_the_samples_enclose():
+    """A dense cube of cells: the enclosed ones are those with all six face neighbours occupied,
+    counted from the sample that completes the neighbourhood."""
+    g = W._Grid(np.zeros(3), np.eye(3), np.array([6, 6, 6]), np.full(3, 1 / 6), 3)
+    idx = np.array([(i, j, k) for i in range(6) for j in range(6) for k in range(6)])
+    first = np.arange(len(idx))[::-1].copy()  # the last cell's sample came first
+    enclosed = W._enclosed_from(idx, first, g)
+    inner = np.all((idx >= 1) & (idx <= 4), axis=1)
+    assert np.all(enclosed[~inner] == np.iinfo(np.int64).max)
+    for c in np.flatnonzero(inner)[:10]:
+        neighbours = [c] + [int(np.flatnonzero(np.all(idx == idx[c] + d, axis=1))[0])
+                            for d in np.vstack([np.eye(3, dtype=int), -np.eye(3, dtype=int)])]
+        assert enclosed[c] == first[neighbours].max()

@@ -12,12 +12,6 @@ import pytest
 from kinematics import api
 from kinematics.engine import cancel, parallel
 from kinematics.errors import CancelledError, KinematicsError, TimeBudgetError
-from kinematics.io.catalogue import default_catalogue
-
-
-@pytest.fixture(scope="module")
-def ur5():
-    return default_catalogue().get("ur5")
 
 
 def _unreachable(model, n, seed=0):

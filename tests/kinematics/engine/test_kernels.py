@@ -335,8 +335,8 @@ def test_warm_up_loads_every_compiled_kernel_a_request_uses():
     import sys
 
     code = ("import kinematics; kinematics.warm_up(); from kinematics.engine import compiled; "
-            "from kinematics.spatial import rotations; from kinematics.engine import ik; "
+            "from kinematics.spatial import rotations; from kinematics.engine import ik, entries; "
             "print(*(len(f.signatures) for f in (compiled.fk, compiled.jacobian, rotations.quaternions, ik.solve, "
-            "compiled.fk_rooted, compiled.jacobian_rooted)))")
+            "compiled.fk_rooted, compiled.jacobian_rooted, entries.fk_one, entries.jacobian_one)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
-    assert len(out.stdout.split()) == 6 and all(int(x) >= 1 for x in out.stdout.split()), out.stdout
+    assert len(out.stdout.split()) == 8 and all(int(x) >= 1 for x in out.stdout.split()), out.stdout

@@ -76,3 +76,43 @@ def test_threads_have_their_own_scratch(catalogue):
     for t in threads:
         t.join()
     assert bad == []
+
+
+@pytest.mark.parametrize("model_id", MODELS)
+def test_a_batch_of_one_takes_the_single_entry_and_equals_its_row_bit_for_bit(catalogue, model_id):
+    """``PoEModel.fk`` / ``jacobian`` with one row run the single-configuration entry (engine/plans.py):
+    the same bits as that row of a larger batch, for every link list and reference."""
+    model = catalogue.get(model_id)
+    poe = compile_model(model)
+    Q = model.sample_configurations(40, np.random.default_rng(5))
+    Q[-2:] *= 1e5
+    leaves = list(model.leaf_links)
+    T_all, T_leaves = poe.fk(Q), poe.fk(Q, leaves)
+    for i in range(Q.shape[0]):
+        assert np.array_equal(poe.fk(Q[i:i + 1]), T_all[i:i + 1])
+        assert np.array_equal(poe.fk(Q[i:i + 1], leaves), T_leaves[i:i + 1])
+        assert np.array_equal(poe.fk(Q[i:i + 1].tolist(), tuple(leaves)), T_leaves[i:i + 1])  # lists, a tuple of names
+    for reference in REFERENCES:
+        J = poe.jacobian(Q, leaves[-1], reference)
+        for i in range(0, Q.shape[0], 3):
+            assert np.array_equal(poe.jacobian(Q[i:i + 1], leaves[-1], reference), J[i:i + 1])
+
+
+def test_a_batch_of_one_is_still_cancellable_and_names_unknown_links(catalogue):
+    from kinematics import api
+    from kinematics.errors import CancelledError, UnknownLinkError
+
+    model = catalogue.get("ur5")
+    poe = compile_model(model)
+    q = np.zeros((1, 6))
+    token = api.Cancellation(None)
+    token.cancel("stop")
+    with api.cancellable(token), pytest.raises(CancelledError):
+        poe.fk(q, ["tool0"])
+    with api.cancellable(token), pytest.raises(CancelledError):
+        poe.jacobian(q, "tool0")
+    for _ in range(2):  # a failed look-up is not cached
+        with pytest.raises(UnknownLinkError, match="tool9"):
+            poe.fk(q, ["tool9"])
+        with pytest.raises(UnknownLinkError, match="tool9"):
+            poe.jacobian(q, "tool9")

@@ -16,11 +16,6 @@ from kinematics.io.trajectory import TrajectoryFileError
 from tests.rosbag_files import joint_states, string_messages, write_bag, write_joint_parquet
 
 
-@pytest.fixture(scope="module")
-def ur5(catalogue):
-    return catalogue.get("ur5")
-
-
 @pytest.mark.parametrize("kind", ["bag", "mcap", "db3"])
 def test_joint_states_read_by_name_with_times(tmp_path, ur5, kind):
     Q, times, msgs = joint_states(ur5, 23)

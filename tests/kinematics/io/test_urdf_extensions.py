@@ -91,3 +91,56 @@ def test_an_unused_xacro_declaration_is_still_urdf():
     """Files xacro wrote keep ``xmlns:xacro`` on <robot>: they are plain URDF."""
     model = parse_urdf(_robot(JOINT.format(attr="", extra=""), ' xmlns:xacro="http://www.ros.org/wiki/xacro"'))
     assert model.dof == 1 and model.warnings == ()
+
+
+MESHES = ('<link name="a"><visual><geometry><mesh filename="$(find arm_description)/meshes/a.stl"/></geometry>'
+          '</visual><collision><geometry><mesh filename="package://$(arg robot)/meshes/${name}.dae"/></geometry>'
+          '</collision></link><link name="b"/>')
+
+
+def _with_meshes(joint: str) -> str:
+    return f'<robot name="r">{MESHES}{joint}</robot>'
+
+
+def test_a_substitution_only_in_mesh_file_names_is_urdf_with_a_warning():
+    """Packages ship URDFs whose mesh names keep ``$(find ...)`` / ``$(arg ...)``: the file names
+    are never opened, so the file is URDF, and the warning names each element and its text."""
+    from kinematics.io.description import detect
+
+    text = _with_meshes(JOINT.format(attr="", extra="").replace("<axis", '<origin xyz="0 0 0.3"/><axis'))
+    assert detect(text.encode()) == "urdf"
+    model = parse_urdf(text)
+    assert model.dof == 1 and model.joint_names == ("j",)
+    (warning,) = model.warnings
+    assert "link 'a' <visual> <mesh filename='$(find arm_description)/meshes/a.stl'>" in warning
+    assert "link 'a' <collision> <mesh filename='package://$(arg robot)/meshes/${name}.dae'>" in warning
+    assert "never opened" in warning
+    assert model.urdf == text  # stored as given
+    Q = np.array([[0.4], [-0.9]])
+    assert crosscheck.compare_fk(model, Q).worst < 1e-12  # Pinocchio reads the same file, and agrees
+
+
+@pytest.mark.parametrize("where, old, new", [
+    ("<origin xyz>", "<axis", '<origin xyz="0 0 $(arg height)"/><axis'),
+    ("<axis xyz>", 'xyz="0 0 1"', 'xyz="$(arg axis)"'),
+    ("<limit upper>", 'upper="1"', 'upper="$(arg upper)"'),
+    ("<joint name>", 'name="j"', 'name="$(arg prefix)j"'),
+    ("<parent link>", 'link="a"', 'link="$(arg root)"'),
+])
+def test_a_substitution_that_matters_beside_the_meshes_is_still_xacro(where, old, new):
+    from kinematics.io.description import detect
+
+    text = _with_meshes(JOINT.format(attr="", extra="").replace(old, new, 1))
+    assert detect(text.encode()) == "xacro"
+    with pytest.raises(URDFError, match="this is a xacro file") as info:
+        parse_urdf(text)
+    assert where in str(info.value) and "--xacro" in str(info.value)
+
+
+def test_a_substitution_in_other_file_names_is_still_xacro():
+    """Only a <mesh filename> of a link's geometry is exempt (a texture, a mesh outside a link's
+    <visual>/<collision> are not geometry this reader knows to be unused)."""
+    text = '<robot name="r"><link name="a"/><link name="b"/>' + JOINT.format(attr="", extra="") + \
+        '<material name="m"><texture filename="$(find pkg)/t.png"/></material></robot>'
+    with pytest.raises(URDFError, match=r"<texture filename>"):
+        parse_urdf(text)

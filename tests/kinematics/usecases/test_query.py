@@ -16,11 +16,6 @@ from kinematics.model.joint_values import as_batch, read_joint_values
 from kinematics.usecases import Budget, Query
 
 
-@pytest.fixture(scope="module")
-def ur5(catalogue):
-    return catalogue.get("ur5")
-
-
 def test_a_query_is_frozen_with_slots(ur5):
     query = Query(ur5, links=["tool0"])
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -1,7 +1,7 @@
 """Every IK solution: a UR5's eight arm postures, a Panda with its last joint locked, and a
 Cartesian path that stays on one branch.
 
-Run: python examples/09_ik_all.py
+Run: python examples/10_ik_all.py
 """
 
 import numpy as np

@@ -1,0 +1,176 @@
+"""One configuration at a time, with the spread over repeated runs (``--only single``).
+
+A single configuration costs a few microseconds, of which most is fixed overhead (argument
+checks, name look-ups, numba's dispatcher, the result's allocation): the figure moves with
+the machine's load from run to run, so one lucky run says little. Every row here is measured
+in :data:`REPEATS` interleaved repeats of ``N`` calls each (all rows in turn, so that each
+repeat sees the same conditions), and the table gives the per-call time's minimum, median
+and 90th percentile over the repeats, with the ratio of the medians to Pinocchio's.
+
+- ``compile_model(model).fk(Q, [link])`` with one row (the batch path, as a library user calls it);
+- ``kinematics.fk_function`` / ``jacobian_function`` (bound to the model and the link);
+- the batch Jacobian ``compile_model(model).jacobian(Q, link)`` with one row;
+- Pinocchio: ``forwardKinematics`` + ``updateFramePlacement`` (the one frame) and
+  ``computeFrameJacobian`` (``WORLD``), on a pre-converted q;
+- the service: ``POST /models/{id}/fk`` with one configuration against ``GET /health`` on a live
+  one-worker uvicorn (``python -m uvicorn app.main:app``, loopback, one keep-alive client).
+
+In-process rows use the CPU time of the benchmarking thread (:data:`bench.common.CLOCK`);
+the service rows use wall time (the request crosses two processes).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .common import CLOCK, Report, configurations, table
+
+#: repeats of every measurement (the spread is over these)
+REPEATS = 7
+#: calls per repeat of an in-process row
+CALLS = 20_000
+#: requests per repeat of a service row
+REQUESTS = 60
+#: robots and links of the in-process table
+ROBOTS = (("ur5", "tool0"), ("panda", "panda_hand_tcp"))
+#: the service's single-configuration FK should cost at most this multiple of /health
+SERVICE_TARGET = 2.0
+
+
+def spread(fns: dict, repeats: int = REPEATS, calls: int = CALLS, clock=CLOCK) -> dict[str, np.ndarray]:
+    """Seconds per call of each function in each of ``repeats`` interleaved repeats of ``calls`` calls."""
+    for fn in fns.values():  # warm: first calls, caches, the dispatcher's type cache
+        for _ in range(100):
+            fn()
+    out = {name: np.empty(repeats) for name in fns}
+    for r in range(repeats):
+        for name, fn in fns.items():
+            t0 = clock()
+            for _ in range(calls):
+                fn()
+            out[name][r] = (clock() - t0) / calls
+    return out
+
+
+def _stats(v: np.ndarray, unit: float = 1e6, digits: int = 2) -> list[str]:
+    return [f"{np.min(v) * unit:.{digits}f}", f"{np.median(v) * unit:.{digits}f}", f"{np.percentile(v, 90) * unit:.{digits}f}"]
+
+
+def library_table(report: Report, quick: bool) -> list[dict]:
+    import pinocchio as pin
+
+    from kinematics import compile_model, default_catalogue, fk_function, jacobian_function
+    from kinematics.verify.pinocchio import reference_for
+
+    calls = CALLS // 10 if quick else CALLS
+    rows, out = [], []
+    for rid, link in ROBOTS:
+        model = default_catalogue().get(rid)
+        poe = compile_model(model)
+        q = configurations(model, 1)[0]
+        Q1 = q[None].copy()
+        ref = reference_for(model)
+        pm = ref.pin_model
+        data = pm.createData()
+        x = ref.to_pinocchio_q(q)
+        fid = ref.frame_ids[link]
+        fk1 = fk_function(poe, link)
+        J1 = jacobian_function(poe, link, "world")
+        world = pin.ReferenceFrame.WORLD
+        pin.forwardKinematics(pm, data, x)
+        pin.updateFramePlacement(pm, data, fid)
+        # the same answers (bit for bit between our paths, 1e-9 against Pinocchio)
+        assert np.array_equal(fk1(q), compile_model(model).fk(Q1, [link])[0, 0])
+        assert np.array_equal(J1(q), poe.jacobian(Q1, link)[0])
+        assert np.abs(fk1(q) - ref.poses(q)[link]).max() < 1e-9
+
+        def pin_fk():
+            pin.forwardKinematics(pm, data, x)
+            pin.updateFramePlacement(pm, data, fid)
+
+        t = spread({
+            "compile_model(model).fk(Q, [link]), 1 row": lambda: compile_model(model).fk(Q1, [link]),
+            "kinematics.fk_function: f(q)": lambda: fk1(q),
+            "Pinocchio forwardKinematics + updateFramePlacement": pin_fk,
+            "compile_model(model).jacobian(Q, link), 1 row": lambda: compile_model(model).jacobian(Q1, link),
+            "kinematics.jacobian_function: J(q)": lambda: J1(q),
+            "Pinocchio computeFrameJacobian (WORLD)": lambda: pin.computeFrameJacobian(pm, data, x, fid, world),
+        }, calls=calls)
+        names = list(t)
+        pin_of = {n: (names[2] if i < 3 else names[5]) for i, n in enumerate(names)}
+        for name in names:
+            ratio = np.median(t[name]) / np.median(t[pin_of[name]])
+            rows.append([rid, name, *_stats(t[name]), "" if name == pin_of[name] else f"{ratio:.2f}"])
+        out.append({"robot": rid, **{name: float(np.median(v)) for name, v in t.items()}})
+    report.add(f"One configuration in-process: µs per call over {REPEATS} repeats of {calls:,} calls",
+               table(["robot", "call", "min", "median", "p90", "median / Pinocchio's"], rows),
+               "CPU time of the benchmarking thread; the repeats are interleaved (every row in turn), so the "
+               "spread is the machine's, seen by every row alike. The batch path `compile_model(model).fk` "
+               "checks its arguments, resolves the link names (cached per list of names) and calls the batch "
+               "kernel; `fk_function` binds all of that once and makes one call of a compiled entry.")
+    return out
+
+
+def service_table(report: Report, quick: bool, robot: str = "ur5") -> dict:
+    import httpx
+    import orjson
+
+    from kinematics.io.catalogue import default_catalogue
+
+    from .service import uvicorn_server
+
+    n = REQUESTS // 3 if quick else REQUESTS
+    model = default_catalogue().get(robot)
+    body = orjson.dumps({"q": configurations(model, 1)[0].tolist()})
+    headers = {"Content-Type": "application/json"}
+    with uvicorn_server(1) as url, httpx.Client(base_url=url, timeout=30.0) as client:
+        def fk():
+            r = client.post(f"/models/{robot}/fk", content=body, headers=headers)
+            assert r.status_code == 200, r.text
+
+        def health():
+            assert client.get("/health").status_code == 200
+
+        for _ in range(30):
+            fk()
+            health()
+        med = {"fk": np.empty(REPEATS), "health": np.empty(REPEATS)}
+        for r in range(REPEATS):
+            for name, fn in (("fk", fk), ("health", health)):
+                times = np.empty(n)
+                for i in range(n):
+                    t0 = time.perf_counter()
+                    fn()
+                    times[i] = time.perf_counter() - t0
+                med[name][r] = np.median(times)
+    ratio = med["fk"] / med["health"]
+    report.add(f"Service: one configuration's FK against /health ({robot}, live one-worker uvicorn; "
+               f"per-repeat median latency over {REPEATS} repeats of {n} requests each)",
+               table(["request", "min (ms)", "median (ms)", "p90 (ms)"], [
+                   [f"POST /models/{robot}/fk (JSON, one q)", *_stats(med["fk"], 1e3, 3)],
+                   ["GET /health", *_stats(med["health"], 1e3, 3)],
+               ]) + "\n\n" + table(["ratio FK / health (per repeat)", "min", "median", "p90", f"median ≤ {SERVICE_TARGET}?"], [
+                   ["", f"{ratio.min():.2f}", f"**{np.median(ratio):.2f}**", f"{np.percentile(ratio, 90):.2f}",
+                    "yes" if np.median(ratio) <= SERVICE_TARGET else "no"]]),
+               "Wall time of sequential requests from one keep-alive httpx client over loopback (client time "
+               "included); each repeat alternates a block of FK requests and a block of /health requests.")
+    return {"ratio_median": float(np.median(ratio)), "fk_median": float(np.median(med["fk"])),
+            "health_median": float(np.median(med["health"]))}
+
+
+def run(report: Report, quick: bool = False) -> dict:
+    return {"library": library_table(report, quick), "service": service_table(report, quick)}
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m bench.single", description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--only", default="library,service")
+    a = p.parse_args()
+    rep = Report()
+    for part in a.only.split(","):
+        {"library": library_table, "service": service_table}[part](rep, a.quick)

@@ -1,0 +1,397 @@
+"""Estimation: the identifiable parameters from measurements, by Levenberg-Marquardt.
+
+:func:`calibrate` fits the :class:`~.errors_model.ErrorModel` of a model and link to what a
+measuring device saw -- positions (N, 3) of a marker on the link or poses (N, 4, 4) of a tool
+on it, in the device's frame -- at joint values Q (N, dof):
+
+1. a ``holdout`` fraction of the measurements is put aside (chosen by ``random_seed``);
+2. the device frame needs no guess: its start is the rigid registration (Kabsch/Umeyama) of the
+   nominal model's predictions onto the measured points; for poses the tool's rotation starts
+   at the chordal mean of the remaining rotations;
+3. the identification Jacobian at that start gives the identifiable combinations
+   (:func:`~.identification.identify`); only their representatives are fitted, the others stay
+   at their start values (their effect is carried by the ones they are a combination of);
+4. ``loss="linear"``: Levenberg-Marquardt (``scipy.optimize.least_squares``, the analytic
+   Jacobian); ``loss="huber"``: a Huber fit whose scale follows the residuals' robust spread
+   (MAD), the measurements whose residual is beyond the chi-square 99.99 % bound of that spread
+   named ``outliers``, and a final linear fit without them;
+5. standard deviations from ``s^2 (J^T J)^{-1}`` at the solution (``s^2`` the residual variance),
+   RMS and largest residual before (the nominal model, registered) and after, the condition
+   number, the held-out RMS, and the calibrated URDF (:mod:`.urdf_out`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import chi2
+
+from ...engine import cancel
+from ...engine.poe import compile_model
+from ...errors import CalibrationError, KinematicsError, UnsupportedJointError
+from ...io.urdf import parse_urdf
+from ...model.robot import RobotModel
+from ...spatial.transforms import make_transform
+from ...tolerances import MAX_ABS_COORDINATE
+from .errors_model import ErrorModel
+from .identification import identify, residual_and_jacobian, singular_values
+from .urdf_out import corrected_urdf
+
+#: false-alarm probability of the outlier test, per measurement
+OUTLIER_PROBABILITY = 1e-4
+
+
+@dataclass
+class Calibration:
+    """A calibration's result (the fields of ``POST /models/{id}/calibrate``).
+
+    Attributes:
+        model: the calibrated :class:`RobotModel` (its ``urdf`` the corrected document).
+        source: the nominal model's name.
+        base: ``T_device_root`` (4, 4). point: the marker point on the link (3,), positions measured.
+        tool: ``T_link_tool`` (4, 4), poses measured (else None).
+        identifiable: the number of combinations the data determine.
+        parameters: ``{"name", "value", "sigma"}`` per fitted parameter (metres, radians).
+        unidentifiable: ``{"name", "reason"}`` per other parameter.
+        condition_number: of the column-equilibrated identification Jacobian at the solution.
+        rmse_before, rmse_after, max_before, max_after: RMS and largest Euclidean position residual (m)
+            over the fitted measurements (with huber, the named outliers left out).
+        rotation_rmse_before, rotation_rmse_after: the same for rotations (rad), poses measured.
+        outliers: indices of the measurements named outliers.
+        holdout: indices held out of the fit; holdout_rmse: their RMS position residual (m), outliers
+            among them left out (None if none).
+        residuals_before, residuals_after: (N,) Euclidean position residual of every measurement.
+        iterations: function evaluations of the fits. status: scipy's message.
+        verification: the calibrated model's FK against Pinocchio's, when the use case was asked to verify.
+    """
+
+    model: RobotModel
+    source: str
+    link: str
+    measure: str
+    base: np.ndarray
+    point: np.ndarray | None
+    tool: np.ndarray | None
+    identifiable: int
+    parameters: list
+    unidentifiable: list
+    condition_number: float
+    rmse_before: float
+    rmse_after: float
+    max_after: float
+    max_before: float
+    outliers: list
+    holdout: list
+    holdout_rmse: float | None
+    residuals_before: np.ndarray
+    residuals_after: np.ndarray
+    iterations: int
+    status: str
+    rotation_rmse_before: float | None = None
+    rotation_rmse_after: float | None = None
+    x: np.ndarray = field(default=None, repr=False)
+    error_model: ErrorModel = field(default=None, repr=False)
+    verification: object = None  # set by the use case when asked (a kinematics.Verification)
+
+    @property
+    def urdf(self) -> str:
+        return self.model.urdf
+
+
+def kabsch(P: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """The rigid ``T`` (4, 4) minimising ``sum |M_i - T P_i|^2`` over points P, M (N, 3) (Umeyama, no scale).
+
+    >>> P = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> M = P @ np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]).T + [1.0, 2, 3]
+    >>> kabsch(P, M)[:3, 3].round(12) + 0.0
+    array([1., 2., 3.])
+    """
+    cp, cm = P.mean(axis=0), M.mean(axis=0)
+    H = (P - cp).T @ (M - cm)
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return make_transform(R, cm - R @ cp)
+
+
+def register(T_link: np.ndarray, measured: np.ndarray, point: np.ndarray, base: np.ndarray | None,
+             estimate_point: bool, iterations: int = 50) -> tuple[np.ndarray, np.ndarray]:
+    """The device frame ``T_device_root`` (4, 4) and the point on the link (3,) that best map the
+    nominal link poses T_link (N, 4, 4) onto the measured points (N, 3): Kabsch for the frame and
+    linear least squares for the point, alternated (``base`` given: only the point;
+    ``estimate_point`` False: only the frame)."""
+    R_i, t_i = T_link[:, :3, :3], T_link[:, :3, 3]
+    p = np.asarray(point, dtype=float).copy()
+    B = base
+    for _ in range(iterations if (base is None and estimate_point) else 1):
+        if base is None:
+            pts = (R_i @ p) + t_i
+            centred = pts - pts.mean(axis=0)
+            if np.linalg.svd(centred, compute_uv=False)[1] / np.sqrt(len(pts)) < 1e-6:
+                raise CalibrationError("the measured configurations put the marker on a line (or at one point): "
+                                       "they do not determine the device frame")
+            B = kabsch(pts, measured)
+        if estimate_point:
+            local = (measured - B[:3, 3]) @ B[:3, :3] - t_i  # R_B^T (m - t_B) - t_i, row-wise
+            p_new = np.linalg.lstsq(R_i.reshape(-1, 3), local.reshape(-1), rcond=None)[0]
+            done = np.abs(p_new - p).max() < 1e-12
+            p = p_new
+            if done:
+                break
+    return B, p
+
+
+def _project_rotation(A: np.ndarray) -> np.ndarray:
+    U, _, Vt = np.linalg.svd(A)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0]) @ Vt
+
+
+def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tuple[np.ndarray, np.ndarray, str]:
+    """Q (N, dof) and the measurements (N, 3) or (N, 4, 4), validated; the measure's name."""
+    if model.multi_dof:
+        raise UnsupportedJointError("calibration needs a model of one-dof joints (no floating or planar joint)")
+    if (positions is None) == (poses is None):
+        raise CalibrationError("give the measured positions or the measured poses (one of them)")
+    try:
+        Q = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise CalibrationError("the joint values q must be numbers", field="q") from None
+    if Q.ndim != 2 or Q.shape[1] != model.dof:
+        raise CalibrationError(f"every q must have {model.dof} values ({', '.join(model.joint_names)}); "
+                               f"got an array of shape {Q.shape}", field="q")
+    bad = np.flatnonzero(~np.all(np.isfinite(Q), axis=1))
+    if bad.size:
+        raise CalibrationError(f"measurement {int(bad[0])}: q has a non-finite value (NaN or inf)", field="q")
+    measure = "position" if poses is None else "pose"
+    try:
+        data = np.asarray(positions if poses is None else poses, dtype=float)
+    except (TypeError, ValueError):
+        raise CalibrationError(f"the measured {measure}s must be numbers") from None
+    shape = (Q.shape[0], 3) if measure == "position" else (Q.shape[0], 4, 4)
+    if data.shape != shape:
+        raise CalibrationError(f"expected {Q.shape[0]} measured {measure}s of shape {shape[1:]}, got {data.shape}")
+    flat = data.reshape(len(data), -1)
+    bad = np.flatnonzero(~np.all(np.isfinite(flat), axis=1))
+    if bad.size:
+        raise CalibrationError(f"measurement {int(bad[0])}: the measured {measure} has a non-finite value (NaN or inf)")
+    bad = np.flatnonzero(np.any(np.abs(flat) > MAX_ABS_COORDINATE, axis=1))
+    if bad.size:
+        raise CalibrationError(f"measurement {int(bad[0])}: the measured {measure} has a value beyond "
+                               f"+-{MAX_ABS_COORDINATE:g} m")
+    if measure == "pose":
+        R = data[:, :3, :3]
+        err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+        bad = np.flatnonzero((err > 1e-6) | (np.linalg.det(R) < 0))
+        if bad.size:
+            raise CalibrationError(f"measurement {int(bad[0])}: the measured pose's rotation is not a rotation")
+    if Q.shape[0] < 3:
+        raise CalibrationError(f"{Q.shape[0]} measurement(s) are too few: a calibration needs dozens "
+                               "(more equations than the parameter combinations they determine)")
+    if np.ptp(Q, axis=0).max() < 1e-9:
+        raise CalibrationError(f"the {Q.shape[0]} measurements are all at the same configuration: "
+                               "they determine nothing (the arm must move between measurements)")
+    return Q, data, measure
+
+
+def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **options) -> Calibration:
+    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
+    (the options: :func:`_calibrate`). A numerical breakdown on degenerate data (a linear-algebra
+    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure."""
+    try:
+        return _calibrate(model, link, q, positions, poses, **options)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationError(f"the measurements are degenerate: the fit broke down ({exc})") from None
+
+
+def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
+              parameters: str = "full", base="estimate", tool: str = "estimate", loss: str = "linear",
+              holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
+              name: str | None = None) -> Calibration:
+    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4).
+
+    Args:
+        point: the marker point's guess on the link (3,), metres (default the link origin).
+        tool_guess: the tool frame's guess ``T_link_tool`` (4, 4), poses measured (default identity).
+        parameters: ``"full"`` (joint origins and zeros) or ``"joint_offsets"`` (zeros only).
+        base: ``"estimate"``, ``"fixed"`` (the device frame is the root frame) or a fixed pose
+            ``T_device_root`` (4, 4). tool: ``"estimate"`` or ``"fixed"`` (at its guess).
+        loss: ``"linear"`` or ``"huber"``. holdout: the fraction of measurements kept out of the fit.
+        rotation_weight: metres per radian of a rotation residual (poses).
+        name: the calibrated robot's name (default ``<name>_calibrated``).
+    """
+    model.link_indices([link])
+    if parameters not in ("full", "joint_offsets"):
+        raise CalibrationError(f"unknown parameters {parameters!r}; expected 'full' or 'joint_offsets'", field="parameters")
+    if loss not in ("linear", "huber"):
+        raise CalibrationError(f"unknown loss {loss!r}; expected 'linear' or 'huber'", field="loss")
+    if tool not in ("estimate", "fixed"):
+        raise CalibrationError(f"unknown tool {tool!r}; expected 'estimate' or 'fixed'", field="tool")
+    if not 0.0 <= float(holdout) < 1.0:
+        raise CalibrationError(f"holdout must be a fraction in [0, 1), got {holdout}", field="holdout")
+    if not (np.isfinite(rotation_weight) and rotation_weight > 0):
+        raise CalibrationError("rotation_weight must be a positive length (metres per radian)", field="rotation_weight")
+    Q, data, measure = check_measurements(model, q, positions, poses)
+    if not any(j.moving for j in model.path_joints(link)):
+        raise CalibrationError(f"no moving joint between the root and {link!r}: nothing to calibrate", field="link")
+    N = len(Q)
+    rng = np.random.default_rng(random_seed)
+    n_hold = int(round(float(holdout) * N))
+    order = rng.permutation(N)
+    held = np.sort(order[:n_hold])
+    fit = np.sort(order[n_hold:])
+    point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise CalibrationError("point must be 3 finite numbers (metres, in the link frame)", field="point")
+    T_tool0 = np.eye(4) if tool_guess is None else np.asarray(tool_guess, dtype=float)
+    if measure == "position":
+        T_tool0 = make_transform(np.eye(3), point)
+
+    # 2. the start: the nominal predictions registered onto the measurements
+    T_link = compile_model(model).fk(Q, [link])[:, 0]
+    measured_points = data if measure == "position" else data[:, :3, 3]
+    if isinstance(base, str) and base == "estimate":
+        base_mode, B0 = "estimate", None
+    elif isinstance(base, str) and base == "fixed":
+        B0, base_mode = np.eye(4), "fixed"
+    elif isinstance(base, str):
+        raise CalibrationError(f"unknown base {base!r}; expected 'estimate', 'fixed' or a pose", field="base")
+    else:
+        B0, base_mode = np.asarray(base, dtype=float), "fixed"
+    B0, p0 = register(T_link[fit], measured_points[fit], T_tool0[:3, 3], B0, estimate_point=tool == "estimate")
+    T_tool0 = make_transform(T_tool0[:3, :3], p0)
+    nominal = T_link @ T_tool0
+    tool_rotation = T_tool0[:3, :3]
+    if measure == "pose" and tool == "estimate":
+        link_R = B0[:3, :3] @ (nominal[fit, :3, :3] @ T_tool0[:3, :3].T)
+        tool_rotation = _project_rotation(np.sum(np.swapaxes(link_R, 1, 2) @ data[fit, :3, :3], axis=0))
+    em = ErrorModel(model, link, measure, parameters, base_mode, tool, R0=B0[:3, :3], t0=B0[:3, 3],
+                    point=T_tool0[:3, 3], tool_rotation=tool_rotation)
+    x0 = em.x0.copy()
+    meas_fit = data[fit]
+    d = 3 if measure == "position" else 6
+
+    # 3. identifiability at the start
+    r0, J0 = residual_and_jacobian(em, Q[fit], x0, meas_fit, rotation_weight)
+    ident = identify(em, J0.reshape(-1, len(x0)), measure)
+    if ident.rank == 0:
+        raise CalibrationError("the measurements determine no parameter")
+    if len(fit) * d <= ident.rank:
+        raise CalibrationError(f"{len(fit)} measurements give {len(fit) * d} equations, not more than the "
+                               f"{ident.rank} parameter combinations they should determine: measure more configurations")
+
+    # 4. the fit; the identifiable set is read again at the first solution (a marker guessed on a
+    # joint axis hides that joint's motion at the start, not at the solution)
+    z, nfev, status = _solve(em, Q[fit], meas_fit, x0, ident.selected, x0[ident.selected].copy(), rotation_weight,
+                             "linear", 1.0)
+    x1 = _full(x0, ident.selected, z)
+    _, J1 = residual_and_jacobian(em, Q[fit], x1, meas_fit, rotation_weight)
+    ident1 = identify(em, J1.reshape(-1, len(x0)), measure)
+    if ident1.rank > ident.rank:
+        ident = ident1
+        if len(fit) * d <= ident.rank:
+            raise CalibrationError(f"{len(fit)} measurements give {len(fit) * d} equations, not more than the "
+                                   f"{ident.rank} parameter combinations they should determine: measure more "
+                                   "configurations")
+    sel = ident.selected
+    inliers = np.arange(len(fit))
+    outliers_fit: np.ndarray = np.array([], dtype=np.intp)
+    z = x1[sel].copy()
+    if loss == "huber":  # from the linear fit, a robust one whose scale follows the residuals' spread
+        for _ in range(3):
+            r = _residuals(em, Q[fit], meas_fit, _full(x0, sel, z), rotation_weight)
+            scale = _robust_sigma(r)
+            z, n, status = _solve(em, Q[fit], meas_fit, x0, sel, z, rotation_weight, "huber", 1.345 * scale)
+            nfev += n
+        r = _residuals(em, Q[fit], meas_fit, _full(x0, sel, z), rotation_weight)
+        scale = _robust_sigma(r)
+        outliers_fit = np.flatnonzero(np.sum(r * r, axis=1) > scale ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d))
+        inliers = np.setdiff1d(np.arange(len(fit)), outliers_fit)
+        if len(inliers) * d <= ident.rank:
+            raise CalibrationError("after leaving out the outliers too few measurements remain")
+    z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, z, rotation_weight, "linear", 1.0)
+    nfev += n
+    x = _full(x0, sel, z)
+    r, J = residual_and_jacobian(em, Q[fit][inliers], x, meas_fit[inliers], rotation_weight)
+    r = r.reshape(-1)
+    Js = J.reshape(-1, len(x))[:, sel]
+    if loss == "linear":
+        rr = _residuals(em, Q[fit], meas_fit, x, rotation_weight)
+        bound = _robust_sigma(rr) ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d)
+        outliers_fit = np.flatnonzero(np.sum(rr * rr, axis=1) > bound)
+
+    # 5. statistics
+    dof_res = max(len(r) - len(sel), 1)
+    s2 = float(r @ r) / dof_res
+    sv, Vt = singular_values(Js, vectors=True)
+    cov = (Vt.T / sv ** 2) @ Vt * s2
+    sigma = np.sqrt(np.diag(cov))
+    norms = np.linalg.norm(Js, axis=0)
+    sv_eq = singular_values(Js / np.where(norms > 0, norms, 1.0))
+    cond = float(sv_eq[0] / sv_eq[-1]) if sv_eq[-1] > 0 else float("inf")
+    params = [{"name": em.names[i], "value": float(x[i]), "sigma": float(sigma[k])} for k, i in enumerate(sel)]
+
+    before = residual_and_jacobian(em, Q, x0, data, rotation_weight, want_jacobian=False)[0]
+    after = residual_and_jacobian(em, Q, x, data, rotation_weight, want_jacobian=False)[0]
+    eb, ea = np.linalg.norm(before[:, :3], axis=1), np.linalg.norm(after[:, :3], axis=1)
+    # held-out measurements beyond the same bound (the fit's residual spread) are outliers too
+    spread = np.sqrt(s2)
+    held_out = held[np.sum(after[held] ** 2, axis=1) > spread ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d)]
+    held_in = np.setdiff1d(held, held_out)
+    used = fit[inliers]
+    corrections = {em.joints[k].name: em.origin_correction(k, x) for k in range(len(em.joints))}
+    text = corrected_urdf(model, corrections, name or f"{model.name}_calibrated")
+    calibrated = parse_urdf(text)
+    T_link_tool = em.tool_pose(x)
+    rot_b = rot_a = None
+    if measure == "pose":
+        rot_b = float(np.sqrt(np.mean(np.sum(before[used, 3:] ** 2, axis=1)))) / rotation_weight
+        rot_a = float(np.sqrt(np.mean(np.sum(after[used, 3:] ** 2, axis=1)))) / rotation_weight
+    return Calibration(
+        model=calibrated, source=model.name, link=link, measure=measure, base=em.base_pose(x),
+        point=T_link_tool[:3, 3].copy() if measure == "position" else None,
+        tool=T_link_tool if measure == "pose" else None,
+        identifiable=ident.rank, parameters=params, unidentifiable=ident.unidentifiable,
+        condition_number=cond,
+        rmse_before=float(np.sqrt(np.mean(eb[used] ** 2))), rmse_after=float(np.sqrt(np.mean(ea[used] ** 2))),
+        max_after=float(ea[used].max()), max_before=float(eb[used].max()),
+        outliers=sorted(int(i) for i in np.concatenate([fit[outliers_fit], held_out])),
+        holdout=[int(i) for i in held],
+        holdout_rmse=float(np.sqrt(np.mean(ea[held_in] ** 2))) if held_in.size else None,
+        residuals_before=eb, residuals_after=ea, iterations=int(nfev), status=status,
+        rotation_rmse_before=rot_b, rotation_rmse_after=rot_a, x=x, error_model=em,
+    )
+
+
+def _full(x0, sel, z):
+    x = x0.copy()
+    x[sel] = z
+    return x
+
+
+def _residuals(em, Q, meas, x, w):
+    return residual_and_jacobian(em, Q, x, meas, w, want_jacobian=False)[0]
+
+
+def _robust_sigma(r: np.ndarray) -> float:
+    """Per-component standard deviation of residuals (n, d), from their median absolute deviation."""
+    return max(1.4826 * float(np.median(np.abs(r - np.median(r, axis=0)))), 1e-12)
+
+
+def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
+    def fun(z):
+        cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
+        return _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
+
+    def jac(z):
+        _, J = residual_and_jacobian(em, Q, _full(x0, sel, z), meas, w)
+        return J.reshape(-1, len(x0))[:, sel]
+
+    method = "lm" if loss == "linear" else "trf"
+    try:
+        res = least_squares(fun, z0, jac=jac, method=method, loss=loss, f_scale=f_scale, x_scale="jac",
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200 if method == "trf" else None)
+    except ValueError as exc:  # scipy refuses shapes it cannot solve
+        raise KinematicsError(f"the calibration fit failed: {exc}") from None
+    return res.x, int(res.nfev), str(res.message)

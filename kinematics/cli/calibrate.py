@@ -1,0 +1,229 @@
+"""``kinematics calibrate`` and ``kinematics calibration-poses``: kinematic calibration from a CSV.
+
+``calibrate`` reads the measurements (CSV: joint columns by name, then ``x,y,z`` or
+``x,y,z,qw,qx,qy,qz``, in the measuring device's frame), fits the model
+(:func:`kinematics.usecases.calibrate`), prints a table of the parameters with their standard
+deviations, the unidentifiable ones with the reason, and a residual summary; writes the
+calibrated URDF (``-o``) and, with ``--plot``, a PNG of the residual of every measurement before
+and after (matplotlib, Agg backend). ``calibration-poses`` prints (or writes as CSV) ``n``
+configurations where measuring determines the parameters best.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+from .. import usecases
+from ..usecases import Query
+from ..spatial.transforms import pose_components
+from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from .pipeline import ModelLoadError, _fail, _model_options, load_model
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "calibrate", help="calibrate a model from measured marker positions or tool poses (CSV) -> URDF",
+        description="Fit every joint origin and zero on the path to --link, the measuring device's frame and the "
+        "marker point (or tool frame) to measurements, and write the calibrated URDF.",
+        epilog="measurements CSV: a header naming every joint, then x,y,z (positions) or x,y,z,qw,qx,qy,qz (poses)\n\n"
+        "examples:\n"
+        "  kinematics calibrate --model ur5 --link tool0 measurements.csv -o ur5_calibrated.urdf\n"
+        "  kinematics calibrate --model ur5 --link tool0 m.csv --loss huber --holdout 0.3 --plot residuals.png\n",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    _model_options(p)
+    p.add_argument("measurements", metavar="CSV", help="the measurements ('-' reads stdin)")
+    p.add_argument("--link", required=True, metavar="NAME", help="the link the marker or tool is fixed to")
+    p.add_argument("--point", metavar="X,Y,Z", help="a guess of the marker point on the link (metres)")
+    p.add_argument("--parameters", choices=("full", "joint_offsets"), default="full")
+    p.add_argument("--base", choices=("estimate", "fixed"), default="estimate",
+                   help="estimate the device frame (default) or take it as the root frame")
+    p.add_argument("--tool", choices=("estimate", "fixed"), default="estimate")
+    p.add_argument("--loss", choices=("linear", "huber"), default="linear")
+    p.add_argument("--holdout", type=float, default=0.0, metavar="F", help="fraction kept out of the fit")
+    p.add_argument("--seed", type=int, default=0, help="which measurements are held out (default 0)")
+    p.add_argument("--rotation-weight", type=float, default=1.0, metavar="M",
+                   help="metres per radian of a rotation residual (poses; default 1)")
+    p.add_argument("--name", help="the calibrated robot's name")
+    p.add_argument("-o", "--output", metavar="URDF", help="write the calibrated URDF")
+    p.add_argument("--json", metavar="FILE", help="write the result (base, point/tool, parameters, residuals) as JSON")
+    p.add_argument("--plot", metavar="PNG", help="draw the residual of every measurement before and after")
+    p.set_defaults(func=run_calibrate)
+
+    q = sub.add_parser(
+        "calibration-poses", help="choose the configurations to measure for a calibration (D-optimal)",
+        description="Choose N configurations within the limits where measuring --link determines the calibration "
+        "parameters best (D-optimality of the identification Jacobian, greedy then exchange).")
+    _model_options(q)
+    q.add_argument("--link", required=True, metavar="NAME")
+    q.add_argument("-n", type=int, default=30, metavar="N", help="how many configurations (default 30)")
+    q.add_argument("--measure", choices=("position", "pose"), default="position")
+    q.add_argument("--point", metavar="X,Y,Z", help="where the marker will be on the link (default 0.05,0.05,0.05)")
+    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("-o", "--output", metavar="CSV", help="write the configurations as CSV (joint columns)")
+    q.set_defaults(func=run_poses)
+
+
+def _point(text: str | None):
+    if text is None:
+        return None
+    try:
+        p = [float(v) for v in text.split(",")]
+    except ValueError:
+        p = []
+    if len(p) != 3:
+        raise ValueError(f"--point: {text!r}; give three comma-separated numbers x,y,z")
+    return p
+
+
+def run_calibrate(args) -> int:
+    try:
+        model = load_model(args)
+    except ModelLoadError as exc:
+        return _fail("calibrate", str(exc), EXIT_MODEL)
+    try:
+        point = _point(args.point)
+    except ValueError as exc:
+        return _fail("calibrate", str(exc), EXIT_USAGE)
+    for path, ext in ((args.output, ".urdf"), (args.plot, ".png")):
+        if path is not None and os.path.splitext(path)[1].lower() != ext:
+            return _fail("calibrate", f"{path}: give a file ending in {ext}", EXIT_USAGE)
+    try:
+        text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
+    except OSError as exc:
+        return _fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
+    cal = usecases.calibrate(Query(model, link=args.link, point=point), csv=text, parameters=args.parameters,
+                             base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
+                             random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)
+    print(report(cal, model.name))
+    if args.output:
+        _write(args.output, cal.urdf.encode("utf-8"))
+        print(f"calibrate: calibrated URDF -> {args.output}", file=sys.stderr)
+    if args.json:
+        _write(args.json, json.dumps(as_dict(cal), indent=1).encode())
+        print(f"calibrate: result -> {args.json}", file=sys.stderr)
+    if args.plot:
+        plot(cal, args.plot, f"{model.name}: {args.link}")
+        print(f"calibrate: plot -> {args.plot}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _pose(T) -> dict:
+    c = pose_components(T)
+    w, x, y, z = (float(v) for v in c["quaternion"])
+    return {"position": [float(v) for v in c["position"]], "quaternion": {"w": w, "x": x, "y": y, "z": z}}
+
+
+def as_dict(cal) -> dict:
+    """The result in the service's field names (``base`` and ``point`` / ``tool`` as FK accepts them)."""
+    return {
+        "from": cal.source, "link": cal.link, "measure": cal.measure, "base": _pose(cal.base),
+        "point": None if cal.point is None else [float(v) for v in cal.point],
+        "tool": None if cal.tool is None else _pose(cal.tool), "identifiable": cal.identifiable,
+        "parameters": cal.parameters, "unidentifiable": cal.unidentifiable, "condition_number": cal.condition_number,
+        "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after, "max_before": cal.max_before, "max_after": cal.max_after,
+        "outliers": cal.outliers, "holdout": cal.holdout, "holdout_rmse": cal.holdout_rmse,
+        "residuals": {"before": cal.residuals_before.tolist(), "after": cal.residuals_after.tolist()},
+    }
+
+
+def report(cal, name: str) -> str:
+    """The parameter table and the residual summary (several lines)."""
+    lines = [f"calibration of {name} link {cal.link} from {len(cal.residuals_after)} measured {cal.measure}s: "
+             f"{cal.identifiable} identifiable combinations, condition number {cal.condition_number:.3g}",
+             f"  {'parameter':<34} {'value':>14} {'sigma':>12}"]
+    angular = {q.name: q.angular for q in cal.error_model.parameters}
+    for p in cal.parameters:
+        unit = "mrad" if angular[p["name"]] else "mm"  # both scaled by 1e3
+        lines.append(f"  {p['name']:<34} {p['value'] * 1e3:>11.4f} {unit:<4} {p['sigma'] * 1e3:>8.4f} {unit}")
+    lines.append(f"  unidentifiable: {len(cal.unidentifiable)}")
+    for u in cal.unidentifiable:
+        lines.append(f"    {u['name']:<32} {u['reason']}")
+    b, p = cal.base[:3, 3], pose_components(cal.base)["quaternion"]
+    lines.append(f"  base (T_device_root): position [{b[0]:.6f}, {b[1]:.6f}, {b[2]:.6f}] m, "
+                 f"quaternion wxyz [{', '.join(f'{v:.6f}' for v in p)}]")
+    if cal.point is not None:
+        lines.append(f"  point on {cal.link}: [{', '.join(f'{v:.6f}' for v in cal.point)}] m")
+    else:
+        t, q = cal.tool[:3, 3], pose_components(cal.tool)["quaternion"]
+        lines.append(f"  tool on {cal.link}: position [{', '.join(f'{v:.6f}' for v in t)}] m, "
+                     f"quaternion wxyz [{', '.join(f'{v:.6f}' for v in q)}]")
+    lines.append(f"  residuals (m): RMS before {cal.rmse_before:.3e}, after {cal.rmse_after:.3e}, "
+                 f"largest before {cal.max_before:.3e}, after {cal.max_after:.3e}")
+    if cal.holdout:
+        held = "n/a" if cal.holdout_rmse is None else f"{cal.holdout_rmse:.3e}"
+        lines.append(f"  held out: {len(cal.holdout)} measurements, RMS {held} m")
+    lines.append(f"  outliers: {', '.join(map(str, cal.outliers)) if cal.outliers else 'none'}")
+    return "\n".join(lines)
+
+
+def plot(cal, path: str, title: str = "") -> None:
+    """The Euclidean residual of every measurement before and after (log scale), held-out and
+    outlier measurements marked, as a PNG (matplotlib, Agg backend)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(cal.residuals_after)
+    idx = np.arange(n)
+    fig, ax = plt.subplots(figsize=(max(6.0, min(16.0, n * 0.12)), 4.0), constrained_layout=True)
+    ax.bar(idx, cal.residuals_before * 1e3, color="#d9a0a0", label=f"before (RMS {cal.rmse_before * 1e3:.3f} mm)")
+    ax.bar(idx, cal.residuals_after * 1e3, color="#3070b0", label=f"after (RMS {cal.rmse_after * 1e3:.4f} mm)")
+    if cal.holdout:
+        ax.scatter(cal.holdout, cal.residuals_after[cal.holdout] * 1e3, marker="o", facecolors="none",
+                   edgecolors="black", s=18, label="held out", zorder=3)
+    if cal.outliers:
+        ax.scatter(cal.outliers, cal.residuals_after[cal.outliers] * 1e3, marker="x", color="red", s=30,
+                   label="outlier", zorder=4)
+    ax.set_yscale("log")
+    ax.set_xlabel("measurement")
+    ax.set_ylabel("position residual [mm]")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _write(path: str, data: bytes) -> None:
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".calibrate.", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def run_poses(args) -> int:
+    try:
+        model = load_model(args)
+    except ModelLoadError as exc:
+        return _fail("calibration-poses", str(exc), EXIT_MODEL)
+    try:
+        point = _point(args.point)
+    except ValueError as exc:
+        return _fail("calibration-poses", str(exc), EXIT_USAGE)
+    choice = usecases.calibration_poses(Query(model, link=args.link, point=point), args.n, measure=args.measure,
+                                        random_seed=args.seed)
+    header = ",".join(model.joint_names)
+    rows = "\n".join(",".join(repr(float(v)) for v in q) for q in choice.q)
+    print(f"# {args.n} configurations for {model.name} link {args.link} ({args.measure}s): D-optimal log det "
+          f"{choice.log_det:.2f} (random {choice.random_log_det:.2f}), condition number {choice.condition_number:.3g} "
+          f"(random {choice.random_condition_number:.3g}), {choice.identifiable} identifiable", file=sys.stderr)
+    if args.output:
+        _write(args.output, (header + "\n" + rows + "\n").encode())
+        print(f"calibration-poses: -> {args.output}", file=sys.stderr)
+    else:
+        print(header)
+        print(rows)
+    return EXIT_OK
