@@ -46,7 +46,6 @@ from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
-from ..spatial.lie import so3_log
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
@@ -94,9 +93,9 @@ class AllSolutions:
 
 
 def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """(K, 6): position error and rotation vector of ``R_target Rᵀ`` (world axes), compiled row by row."""
     e = np.empty((F.shape[0], 6))
-    e[:, :3] = targets[:, :3, 3] - F[:, :3, 3]
-    e[:, 3:] = so3_log(np.einsum("nij,nkj->nik", targets[:, :3, :3], F[:, :3, :3]))
+    ik_fast.pose_error_rows(np.ascontiguousarray(F), np.ascontiguousarray(targets), e)
     return e
 
 
@@ -130,9 +129,9 @@ def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns
         # a row leaves once converged, so its steps do not depend on the other rows of the batch
         Qa, ea = Q[active], e[active]
         J = poe.jacobian(Qa, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
-        # einsum, not a batched matmul: the same arithmetic for a row alone and in a batch
-        A = np.einsum("nri,nrj->nij", J, J) + lam[active, None, None] * np.eye(n)
-        dq = np.linalg.solve(A, np.einsum("nri,nr->ni", J, ea)[:, :, None])[:, :, 0]
+        # the normal equations row by row (compiled): the same arithmetic for a row alone and in a batch
+        dq = np.empty((len(active), n))
+        ik_fast.damped_steps(np.ascontiguousarray(J), np.ascontiguousarray(ea), np.ascontiguousarray(lam[active]), dq)
         if damped:
             big = np.abs(dq).max(axis=1, initial=0.0)
             dq *= np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))[:, None]

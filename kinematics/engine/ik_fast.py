@@ -11,6 +11,7 @@ import math
 import numba as nb
 import numpy as np
 
+from .ik import rotation_log
 from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -380,3 +381,71 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
                         n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, False, f2, h0, h1, h2, h3, h4, h5, u)
                 a, fa = bq, fb
         count[t] = n
+
+
+@nb.njit(**_JIT)
+def damped_steps(J, e, lam, dq):
+    """``dq[i] = (J_iᵀ J_i + λ_i I)⁻¹ J_iᵀ e_i`` for each row i (J (K, m, n), e (K, m), λ (K,) > 0):
+    the normal equations by a Cholesky factorisation in plain loops, row by row (the same bits for a
+    row alone and in a batch). A factor that is not positive (λ too small for a singular J) gives a
+    zero step."""
+    K, m, n = J.shape
+    A = np.empty((n, n))
+    b = np.empty(n)
+    for i in range(K):
+        for r in range(n):
+            s = 0.0
+            for k in range(m):
+                s += J[i, k, r] * e[i, k]
+            b[r] = s
+            for c in range(r + 1):
+                s = 0.0
+                for k in range(m):
+                    s += J[i, k, r] * J[i, k, c]
+                A[r, c] = s
+            A[r, r] += lam[i]
+        ok = True
+        for r in range(n):  # A = L Lᵀ, L in the lower triangle of A
+            for c in range(r + 1):
+                s = A[r, c]
+                for k in range(c):
+                    s -= A[r, k] * A[c, k]
+                if r == c:
+                    if s <= 0.0:
+                        ok = False
+                        break
+                    A[r, r] = math.sqrt(s)
+                else:
+                    A[r, c] = s / A[c, c]
+            if not ok:
+                break
+        if not ok:
+            for r in range(n):
+                dq[i, r] = 0.0
+            continue
+        for r in range(n):  # L y = b
+            s = b[r]
+            for k in range(r):
+                s -= A[r, k] * b[k]
+            b[r] = s / A[r, r]
+        for r in range(n - 1, -1, -1):  # Lᵀ x = y
+            s = b[r]
+            for k in range(r + 1, n):
+                s -= A[k, r] * b[k]
+            b[r] = s / A[r, r]
+        for r in range(n):
+            dq[i, r] = b[r]
+
+
+@nb.njit(**_JIT)
+def pose_error_rows(F, T, e):
+    """``e[i] = (p_T − p_F, log(R_T R_Fᵀ))`` (world axes) for poses F, T (K, 4, 4), row by row."""
+    R = np.empty((3, 3))
+    out = np.empty(3)
+    for i in range(F.shape[0]):
+        for a in range(3):
+            e[i, a] = T[i, a, 3] - F[i, a, 3]
+            for b in range(3):
+                R[a, b] = T[i, a, 0] * F[i, b, 0] + T[i, a, 1] * F[i, b, 1] + T[i, a, 2] * F[i, b, 2]
+        rotation_log(R, out)
+        e[i, 3], e[i, 4], e[i, 5] = out[0], out[1], out[2]
