@@ -36,6 +36,7 @@ from kinematics.errors import (
     KinematicsError,
     LimitError,
     MissingExtraError,
+    LockedJointError,
     ModelTooLargeError,
     NoDHFormError,
     PoEError,
@@ -93,6 +94,7 @@ KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (ConfigurationNormError, 422, "non-unit-joint-values", "Quaternion or planar (cos, sin) not of unit norm"),
     (JointValueError, 422, "invalid-joint-values", "Invalid joint values"),
     (LimitError, 422, "joint-limits", "Joint values outside their limits"),
+    (LockedJointError, 422, "invalid-locked-joint", "Invalid locked joint"),
     (BasePoseError, 422, "invalid-base-pose", "Invalid base pose"),
     (PoseError, 422, "invalid-pose", "Invalid pose"),
     (CalibrationError, 422, "invalid-calibration-data", "Measurements a calibration cannot use"),
@@ -160,6 +162,8 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
     if isinstance(exc, TimeBudgetError):  # a time budget (closed forms' too): the setting and its limit in seconds
         return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
+    if isinstance(exc, LockedJointError):
+        return problem(status, title, detail, slug, model=model_id, field="locked", joint=exc.joint)
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))
 
 

@@ -1,12 +1,13 @@
 """Run every benchmark and print markdown tables (``python -m bench.run_all``, ``make bench``).
 
-Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,load,calibration,collision``
+Options: ``--quick`` (smaller batches, for a smoke run), ``--only kernels,scaling,service,ik,ik-all,load,calibration,collision``
 (default: all but ``ik``, which needs the baselines of the ``bench`` extra and takes minutes, and
 ``logs``, ``load`` and ``single``; ``load`` writes ``RESULTS_LOAD.md``, ``single`` (one configuration
 at a time, with the spread over repeated runs) ``RESULTS_SINGLE.md``),
 ``--output bench/RESULTS.md`` (also write the tables there, with the date and the command; the
 ``ik`` suite's tables go to their own file beside it, ``RESULTS_IK.md``, so that running one
-alone never overwrites the other's),
+alone never overwrites the other's; ``ik-all``, every IK solution against EAIK and IK-Geo (the
+``ik-all-baselines`` extra), writes ``RESULTS_IK_ALL.md``),
 ``--blas-threads N`` (default 1: Pinocchio's loop is single-threaded, so ours is too).
 
 To benchmark the BLAS kernel that matches this CPU, unset the OpenBLAS overrides in the
@@ -24,14 +25,14 @@ import time
 
 from .common import Report, machine_info
 
-SUITES = ("kernels", "scaling", "service", "ik", "logs", "floating", "load", "calibration", "single", "collision")
+SUITES = ("kernels", "scaling", "service", "ik", "ik-all", "logs", "floating", "load", "calibration", "single", "collision")
 #: the suites run when --only is not given
 DEFAULT_SUITES = ("kernels", "scaling", "service")
 #: suites whose tables are written to their own file, beside --output (not into it)
 SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md", "floating": "RESULTS_FLOATING.md",
                    "load": "RESULTS_LOAD.md", "calibration": "RESULTS_CALIBRATION.md",
                    "single": "RESULTS_SINGLE.md",
-                   "collision": "RESULTS_COLLISION.md"}
+                   "collision": "RESULTS_COLLISION.md", "ik-all": "RESULTS_IK_ALL.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 
@@ -60,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
         header = machine_info()
         print(header, flush=True)
         for name in suites:
-            module = __import__(f"bench.{name}", fromlist=["run"])
+            module = __import__(f"bench.{name.replace('-', '_')}", fromlist=["run"])
             first = len(report.sections)
             module.run(report, quick=args.quick)
             by_suite[name] = report.sections[first:]

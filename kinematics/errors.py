@@ -123,6 +123,15 @@ class SymbolicTimeoutError(TimeBudgetError, SymbolicError):
         self.timeout = timeout
 
 
+class LockedJointError(KinematicsError):
+    """A ``locked`` entry of an IK request names no joint of the model, or a value that is not a
+    number or is outside the joint's limits (``joint`` names it)."""
+
+    def __init__(self, message: str, *, joint: str):
+        super().__init__(message)
+        self.joint = joint
+
+
 class TaskError(KinematicsError):
     """A task-space representation that is unknown or malformed (``representation``, ``components``)."""
 

@@ -154,8 +154,19 @@ def test_example_09_calibration():
     assert nominal > 2 and calibrated < 30
 
 
-def test_example_10_self_collision():
-    out = run_example("10_self_collision.py")
+def test_example_10_ik_all():
+    out = run_example("10_ik_all.py")
+    assert "ur5 family: three_parallel" in out
+    assert "8 solutions (analytic); first = seed: True" in out
+    assert deviation(out, "worst Pinocchio deviation:") < 1e-9
+    assert "within the limits, copies included: 256" in out
+    assert "panda, q7 locked: spherical_shoulder_intersecting_12, 8 solutions" in out
+    assert "3 m away: 0 solutions" in out
+    assert re.search(r"path: \d+ rows, complete True", out)
+
+
+def test_example_11_self_collision():
+    out = run_example("11_self_collision.py")
     assert "colliding: [False, True]" in out
     assert "same pairs as Pinocchio: 100.0%" in out
     assert deviation(out, "distance deviation from Pinocchio:") < 1e-6

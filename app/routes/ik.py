@@ -5,11 +5,16 @@ A JSON body is an ``IKRequest``. With ``Content-Type: application/x-npy`` the bo
 parameters. ``Accept: application/x-npz`` answers an uncompressed ``.npz`` with ``q`` (N, dof),
 ``success`` (N,), ``position_error`` (N,), ``rotation_error`` (N,) and ``iterations`` (N,)
 (joint order in ``X-Joint-Names``).
+
+With ``solutions: "all"`` the answer lists every solution (``count``, ``solutions`` records; the
+``.npz`` holds ``q`` (N, K, dof) padded with NaN, ``count`` (N,), ``within_limits``, ``singular``,
+``position_error``, ``rotation_error`` (N, K)); ``.npy`` requests give ``locked`` as repeated
+``locked=joint:value`` query parameters.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, Union
 
 from fastapi import APIRouter, Depends, Query, Request
 
@@ -19,10 +24,11 @@ from kinematics.io.poses import pose_count
 from ..adapter import (FloatingBaseQuery, LinkQuery, NormalizeQuery, PointQuery, budget, error_responses, execute,
                        names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..errors import ProblemError
 from ..metrics import record_ik
 from ..npy import decode_targets
 from ..responses import NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
-from ..schemas import IK_EXAMPLES, IKRequest, IKResponse
+from ..schemas import IK_EXAMPLES, IKAllResponse, IKRequest, IKResponse
 from ..settings import Settings
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
@@ -45,18 +51,23 @@ async def read_ik_request(
     random_seed: Annotated[int, Query(ge=0, le=2**63 - 1, description=".npy bodies: restarts' draws")] = 0,
     verify: Annotated[bool, Query(description=".npy bodies: Pinocchio's FK of every answer")] = False,
     point: PointQuery = None, floating_base: FloatingBaseQuery = False, normalize: NormalizeQuery = False,
+    solutions: Annotated[Literal["one", "all"], Query(description=".npy bodies: one or all")] = "one",
+    method: Annotated[Literal["auto", "analytic", "numeric"], Query(description=".npy bodies: the method")] = "auto",
+    limits: Annotated[Literal["respect", "ignore"], Query(description=".npy bodies: with solutions all")] = "respect",
+    locked: Annotated[list[str] | None, Query(description=".npy bodies: joint:value, repeated")] = None,
 ) -> IKRequest:
     def npy(body: bytes) -> dict:
         return {"target": decode_targets(body), "link": link, "mode": mode, "max_iterations": max_iterations,
                 "tolerance": {"position": position_tolerance, "rotation": rotation_tolerance}, "restarts": restarts,
                 "random_seed": random_seed, "verify": verify, "point": parse_point(point),
-                "floating_base": floating_base, "normalize": normalize}
+                "floating_base": floating_base, "normalize": normalize, "solutions": solutions, "method": method,
+                "limits": limits, "locked": parse_locked(locked)}
 
     return await read_request(request, settings, IKRequest, npy=npy, empty=('{"target": ...}', "target"), batch=None)
 
 
 @router.post(
-    "/models/{model_id}/ik", response_model=IKResponse,
+    "/models/{model_id}/ik", response_model=Union[IKResponse, IKAllResponse],
     responses={200: npy_response_doc("np.savez: q (N, dof), success (N,), position_error (N,), rotation_error (N,), "
                                      "iterations (N,)", NPZ_MEDIA_TYPE),
                **error_responses({413: "body, targets or IK work (targets x attempts x iterations) over a limit",
@@ -81,12 +92,34 @@ async def inverse_kinematics(model_id: ModelId, req: Annotated[IKRequest, Depend
                          inline=pose_count(req.target) <= INLINE_MAX_TARGETS and steps <= INLINE_MAX_STEPS)
 
 
+def parse_locked(values: list[str] | None) -> dict[str, float] | None:
+    """``locked=joint:value`` query parameters as a map (a malformed one is a 422 naming the field)."""
+    if not values:
+        return None
+    out: dict[str, float] = {}
+    for item in values:
+        name, sep, value = item.rpartition(":")
+        try:
+            if not sep or not name:
+                raise ValueError
+            out[name] = float(value)
+        except ValueError:
+            raise ProblemError(422, f"locked: {item!r} is not joint:value", slug="validation-error",
+                               field="locked") from None
+    return out
+
+
 def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     tolerance = req.tolerance
-    answer = usecases.ik(req.to_query(rec.model, budget(settings)), req.target, seed=req.seed, mode=req.mode,
-                         position_tolerance=tolerance["position"], rotation_tolerance=tolerance["rotation"],
-                         max_iterations=req.max_iterations, restarts=req.restarts, random_seed=req.random_seed)
+    # the request's limits are the IK policy (respect / ignore), not the joint-value policy of the query
+    answer = usecases.ik(req.to_query(rec.model, budget(settings), limits="report"), req.target, seed=req.seed,
+                         mode=req.mode, position_tolerance=tolerance["position"],
+                         rotation_tolerance=tolerance["rotation"], max_iterations=req.max_iterations,
+                         restarts=req.restarts, random_seed=req.random_seed, solutions=req.solutions,
+                         method=req.method, locked=req.locked, limits=req.limits)
+    if isinstance(answer, usecases.IKAllAnswer):
+        return _all_answer(rec.id, answer, request)
     sol = answer.solution
     record_ik(sol.success, sol.iterations)
     if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
@@ -105,4 +138,22 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
         "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
         "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
         "verification": verification,
+    })
+
+
+def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
+    """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
+    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
+        headers = names_headers([answer.link], answer.model.joint_names)
+        headers = {"X-Link": answer.link, "X-Family": answer.family, "X-Method": answer.method,
+                   **{k: v for k, v in headers.items() if "Joint-Names" in k}}
+        return NpzResponse({"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
+                            "singular": answer.singular, "position_error": answer.position_error,
+                            "rotation_error": answer.rotation_error}, headers=headers)
+    one = one_or_all(answer.is_batch)
+    return FastJSONResponse({
+        "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
+        "method": answer.method, "family": answer.family, "locked": answer.locked,
+        "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
+        "verification": answer.verification,
     })

@@ -3,7 +3,7 @@
 :mod:`app.schemas.common` holds the JSON types, poses, the problem and :class:`QueryRequest`, the
 base of every request on a model's frames (it declares the fields of :class:`kinematics.Query`
 once and builds the query); :mod:`~app.schemas.models`, :mod:`~app.schemas.fk`,
-:mod:`~app.schemas.jacobian`, :mod:`~app.schemas.ik`, :mod:`~app.schemas.velocity`,
+:mod:`~app.schemas.jacobian`, :mod:`~app.schemas.ik`, :mod:`~app.schemas.ik_all`, :mod:`~app.schemas.velocity`,
 :mod:`~app.schemas.workspace`, :mod:`~app.schemas.symbolic` and :mod:`~app.schemas.calibration` the operations'. Every name is
 importable from ``app.schemas`` itself.
 """
@@ -18,6 +18,7 @@ from .common import (_BASE_DESC, _FLOATING_BASE_DESC, _LIMITS_DESC, _NORMALIZE_D
 from .fk import *  # noqa: F403
 from .ik import *  # noqa: F403
 from .ik import _POSE_DESC  # noqa: F401
+from .ik_all import *  # noqa: F403
 from .jacobian import *  # noqa: F403
 from .models import *  # noqa: F403
 from .symbolic import *  # noqa: F403
@@ -25,6 +26,7 @@ from .velocity import *  # noqa: F403
 from .workspace import *  # noqa: F403
 from .fk import FKRequest
 from .ik import IKRequest
+from .ik_all import IKPathRequest
 from .jacobian import JacobianRequest
 from .models import AxesDescriptionIn, DHTable, PoEDescriptionIn, URDFUpload
 from .common import Problem
@@ -34,7 +36,7 @@ from .calibration import CalibrationPosesRequest, CalibrationRequest
 from .collision import CollisionRequest
 
 #: the request schemas whose JSON Schema the OpenAPI document lists (bodies some handlers read themselves)
-REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, VelocityRequest,
+REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, IKPathRequest, VelocityRequest,
                                                 WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
                                                 AxesDescriptionIn, CalibrationRequest, CalibrationPosesRequest,
                                                 CollisionRequest, Problem)

@@ -32,6 +32,19 @@ class IKRequest(QueryRequest):
     restarts: Integer = Field(default=50, ge=0, le=10_000,
                           description="attempts from random configurations within the limits after the first")
     random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
+    solutions: Literal["one", "all"] = Field(
+        default="one", description="one: a single answer (numerical, or the closed-form solution nearest the seed "
+                                   "with method analytic or locked joints); all: every solution")
+    method: Literal["auto", "analytic", "numeric"] = Field(
+        default="auto", description="auto: the chain's closed form where it has one, else the search (all) or damped "
+                                    "least squares (one); analytic: the closed form or a 422; numeric: no closed form")
+    locked: Union[dict[str, Number], None] = Field(
+        default=None, description="joints held at these values, {joint: value} (a 7-dof arm with one locked is a "
+                                  "6-joint chain)")
+    limits: Literal["respect", "ignore"] = Field(
+        default="respect", description="with solutions all: respect lists every solution inside the limits, each "
+                                       "q + 2 pi k copy of a revolute joint included; ignore lists each branch once, "
+                                       "revolute angles in (-pi, pi], flagged within_limits")
 
 
 class IKVerification(BaseModel):

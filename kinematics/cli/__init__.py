@@ -19,7 +19,8 @@ from importlib.metadata import entry_points
 from ..errors import KinematicsError
 
 #: sub-command modules, in the order their commands appear in ``--help``
-COMMAND_MODULES = ("check", "dh", "pipeline", "ik", "velocity", "workspace", "symbolic", "calibrate", "collision")
+COMMAND_MODULES = ("check", "dh", "pipeline", "ik", "ik_path", "velocity", "workspace", "symbolic", "calibrate",
+                   "collision")
 #: entry-point group of commands that other packages add
 PLUGIN_GROUP = "kinematics.commands"
 

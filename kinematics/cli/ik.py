@@ -3,7 +3,8 @@
 Targets (CSV ``x,y,z,qw,qx,qy,qz``, ``.npy`` (N, 4, 4) or (N, 7), JSON lines of poses; see
 :class:`kinematics.io.trajectory.TargetRows`) stream in chunks through :func:`kinematics.usecases.ik`;
 the answers (joint values, success, errors, iterations) go to OUTPUT, and one summary line to
-stderr. The exit code is 1 when any target was not solved.
+stderr. The exit code is 1 when any target was not solved. ``--all`` writes every solution, one
+row per solution with its target's index (:mod:`kinematics.algorithms.ik_all`).
 """
 
 from __future__ import annotations
@@ -98,6 +99,16 @@ def register(sub) -> None:
     p.add_argument("--verify", action="store_true",
                    help="also measure every answer with Pinocchio's FK; exit 1 when a solved answer is off "
                    f"its target by more than the tolerance + {AGREEMENT_TOLERANCE:g}")
+    p.add_argument("--all", action="store_true",
+                   help="every solution: one row per solution, 'target' (0-based) first, then the joints, "
+                   "position_error, rotation_error, within_limits, singular (.csv or .jsonl output)")
+    p.add_argument("--method", choices=("auto", "analytic", "numeric"), default="auto",
+                   help="with --all: the chain's closed form (auto, analytic) or the multistart search (numeric)")
+    p.add_argument("--limits", choices=("respect", "ignore"), default="respect",
+                   help="with --all: respect (every solution inside the limits, 2 pi copies included) or "
+                   "ignore (each branch once, angles in (-pi, pi])")
+    p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[],
+                   help="hold a joint at a value (repeat for several; a 7-dof arm with one locked is a 6-joint chain)")
     p.set_defaults(func=run_ik)
 
 
@@ -120,7 +131,72 @@ def run_ik(args) -> int:
             return _fail("ik", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
         except JointValueError as exc:
             return _fail("ik", f"--seed: {exc}", EXIT_USAGE)
+    locked = parse_locked(args.locked)
+    if isinstance(locked, str):
+        return _fail("ik", locked, EXIT_USAGE)
+    if args.all or locked:
+        return _quietly(_solve_all, args, model, link, seed, locked)
     return _quietly(_solve, args, model, link, seed)
+
+
+def parse_locked(items) -> dict[str, float] | str:
+    """``--locked JOINT:VALUE`` options as a map, or the message of a malformed one."""
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, value = item.rpartition(":")
+        try:
+            if not sep or not name:
+                raise ValueError
+            out[name] = float(value)
+        except ValueError:
+            return f"--locked: {item!r} is not JOINT:VALUE"
+    return out
+
+
+def _solve_all(args, model, link: str, seed, locked) -> int:
+    """Every solution of every target: one output row per solution; exit 1 when a target has none."""
+    import json
+
+    source, in_fmt, dest, out_fmt = _endpoints(args)
+    if out_fmt not in ("csv", "jsonl"):
+        return _fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
+    api.ik_family(model, link=link, locked=locked)  # a bad --locked fails before any output
+    names = list(model.joint_names)
+    total = unsolved = rows = 0
+    family = method = "?"
+    out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
+    try:
+        if out_fmt == "csv":
+            out.write(",".join(["target", *names, "position_error", "rotation_error", "within_limits", "singular"]) + "\n")
+        with open_input(args, model, source, in_fmt, targets=True) as targets:
+            for start, T in targets:
+                a = api.ik(model, T, link=link, seed=seed, mode=args.mode, solutions="all", method=args.method,
+                           limits=args.limits, locked=locked or None, position_tolerance=args.position_tolerance,
+                           rotation_tolerance=args.rotation_tolerance, verify=args.verify)
+                family, method = a.family, a.method
+                for n in range(len(a.count)):
+                    total += 1
+                    unsolved += int(a.count[n] == 0)
+                    for rec in a.solutions(n):
+                        rows += 1
+                        if out_fmt == "csv":
+                            out.write(",".join([str(start + n), *(repr(float(v)) for v in rec["q"]),
+                                                repr(rec["position_error"]), repr(rec["rotation_error"]),
+                                                str(rec["within_limits"]).lower(), str(rec["singular"]).lower()]) + "\n")
+                        else:
+                            out.write(json.dumps({"target": start + n, "q": dict(zip(names, rec["q"])),
+                                                  **{k: rec[k] for k in ("position_error", "rotation_error",
+                                                                         "within_limits", "singular")}}) + "\n")
+                if a.verification is not None:
+                    print(f"ik: verify: worst position error {a.verification['max_position_error']:.3g} m, rotation "
+                          f"{a.verification['max_rotation_error']:.3g} rad vs {a.verification['reference']}",
+                          file=sys.stderr)
+    finally:
+        if out is not dest:
+            out.close()
+    print(f"ik: {rows} solutions of {total} targets ({family}, {method}); {unsolved} targets without a solution",
+          file=sys.stderr)
+    return EXIT_DISAGREE if unsolved else EXIT_OK
 
 
 def _bad_option(args) -> str | None:

@@ -3,7 +3,8 @@
 Each takes a :class:`~kinematics.usecases.query.Query` ("which frame of which model, how": link(s),
 point / tool, base, floating base, normalisation, limits policy, verification, budget) and its own
 arguments: :func:`fk` ``(query, q)``, :func:`jacobian` ``(query, q, reference=...)``,
-:func:`velocity` ``(query, q, qdot)``, :func:`ik` ``(query, target, ...)``, :func:`workspace`
+:func:`velocity` ``(query, q, qdot)``, :func:`ik` ``(query, target, ...)`` (every solution: ``solutions="all"``,
+:func:`ik_all`; :func:`ik_family`, :func:`ik_path`), :func:`workspace`
 ``(query, samples=...)``, :func:`task` ``(query, q, representation=...)``, :func:`calibrate`
 ``(query, measurements, ...)`` and :func:`calibration_poses` ``(query, n, ...)``; closed forms
 (:func:`symbolic`, :func:`symbolic_dh`) and models (:func:`load_model`, :func:`model_from_description`,
@@ -26,6 +27,7 @@ from .calibration import calibrate, calibration_measurements, calibration_poses
 from .collision import CollisionAnswer, collision, collision_free, collision_matrix
 from .fk import FKAnswer, fk
 from .ik import IKAnswer, ik
+from .ik_all import IKAllAnswer, ik_all, ik_family, ik_path
 from .jacobian import JacobianAnswer, jacobian
 from .models import (DESCRIPTION_KINDS, compiled_models, description_urdf, dh_form, load_model,
                      model_from_description, reference_name, screws, warm_up)
@@ -38,7 +40,8 @@ from .velocity import VelocityAnswer, velocity
 from .workspace import workspace
 
 __all__ = [
-    "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk", "IKAnswer", "ik", "JacobianAnswer", "jacobian",
+    "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
+    "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",

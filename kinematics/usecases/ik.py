@@ -9,11 +9,12 @@ import numpy as np
 
 from ..algorithms import ik as _ik
 from ..algorithms.ik import IKSolution, inverse_kinematics, pose_errors
-from ..errors import JointValueError
+from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.joint_values import as_batch
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
+from .ik_all import SOLUTIONS, ik_all
 from .query import Query, prefixed
 
 
@@ -34,7 +35,8 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
        position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
        rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
        max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
-       random_seed: int = 0, **options: Any) -> IKAnswer:
+       random_seed: int = 0, solutions: str = "one", method: str = "auto", locked: dict | None = None,
+       limits: str = "respect", **options: Any):
     """Joint values putting the query's ``link`` (None: the first leaf link) at ``target``: one pose
     or a list (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array),
     ``T_world_link``. With the query's ``point`` or ``tool`` the targets are poses of that frame,
@@ -48,7 +50,25 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
     ``7 + n`` values; models with floating or planar joints are solved on the configuration
     manifold (:func:`kinematics.algorithms.ik.tree_inverse_kinematics`). Work is bounded by the
     budget's ``max_batch`` (targets), ``max_verify`` and ``max_ik_work``.
+
+    ``solutions="all"``: **every** solution, an :class:`~kinematics.usecases.ik_all.IKAllAnswer`
+    (``method`` ``auto`` / ``analytic`` / ``numeric``, ``locked`` ``{joint: value}``, ``limits``
+    ``respect`` / ``ignore``: :func:`kinematics.usecases.ik_all.ik_all`). ``solutions="one"`` with
+    ``method="analytic"`` or ``locked`` joints: the solution nearest the seed among all of them.
     """
+    if solutions not in SOLUTIONS:
+        raise KinematicsError(f"solutions: {solutions!r} is not one of {', '.join(SOLUTIONS)}")
+    if method not in ("auto", "analytic", "numeric"):
+        raise KinematicsError(f"method: {method!r} is not one of auto, analytic, numeric")
+    if solutions == "all" or method == "analytic" or locked:
+        answer = ik_all(query, target, seed=seed, mode=mode, position_tolerance=position_tolerance,
+                        rotation_tolerance=rotation_tolerance, method=method, locked=locked, limits=limits,
+                        one=solutions == "one", max_iterations=max_iterations, restarts=restarts,
+                        random_seed=random_seed, **options)
+        if solutions == "all":
+            return answer
+        link, T, is_batch, solution = answer
+        return IKAnswer(Query.of(query, **options).robot, link, mode, is_batch, T, solution)
     query = Query.of(query, **options)
     model, budget = query.robot, query.budget
     T, is_batch = pose_list(target, "target")

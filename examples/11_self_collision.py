@@ -1,7 +1,7 @@
 """Self-collision of the UR5 and the Panda on their catalogue meshes: a batch check with
 distances, the allowed-collision matrix as SRDF, and the same answer from Pinocchio with coal.
 
-Run: python examples/10_self_collision.py
+Run: python examples/11_self_collision.py
 """
 
 import numpy as np

@@ -1,0 +1,62 @@
+"""The families of IK chains and Cartesian paths: ``GET /models/{id}/ik/family``,
+``POST /models/{id}/ik/path``."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, Query, Request
+
+from kinematics import usecases
+
+from ..adapter import LinkQuery, budget, error_responses, execute, read_request, request_body_doc
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..errors import ProblemError
+from ..responses import FastJSONResponse
+from ..schemas import IK_PATH_EXAMPLES, IKFamilyResponse, IKPathRequest, IKPathResponse
+from .ik import parse_locked
+
+router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
+
+
+@router.get("/models/{model_id}/ik/family", response_model=IKFamilyResponse,
+            responses=error_responses({422: "invalid locked joint"}, statuses=(404, 422)))
+def ik_family(model_id: ModelId, registry: RegistryDep, link: LinkQuery = None,
+              locked: Annotated[list[str] | None, Query(description="joint:value, repeated")] = None):
+    """The structure of the chain to `link` with `locked` joints held: which axes meet or are
+    parallel, the family's name, whether it has a closed form and how many solutions at most."""
+    rec = registry.get(model_id)
+    return FastJSONResponse(usecases.ik_family(usecases.Query(rec.model, link=link), locked=parse_locked(locked)))
+
+
+async def read_path_request(request: Request, settings: SettingsDep) -> IKPathRequest:
+    return await read_request(request, settings, IKPathRequest, empty=('{"waypoints": [...]}', "waypoints"),
+                              batch=None)
+
+
+@router.post("/models/{model_id}/ik/path", response_model=IKPathResponse,
+             responses=error_responses({422: "invalid waypoints, seed, locked joint or options"}),
+             openapi_extra=request_body_doc("IKPathRequest", IK_PATH_EXAMPLES, None))
+async def ik_path(model_id: ModelId, req: Annotated[IKPathRequest, Depends(read_path_request)], request: Request,
+                  registry: RegistryDep, settings: SettingsDep):
+    """A Cartesian path through `waypoints`: straight lines and rotation geodesics cut at `step`,
+    each target solved by continuation from the previous row (the nearest solution of the full set),
+    never a joint change over `max_joint_step`; where it stops, `stopped` says at which target and why."""
+    if req.avoid_collisions:
+        raise ProblemError(422, "avoid_collisions: self-collision checks are not available for paths yet",
+                           slug="validation-error", field="avoid_collisions")
+    return await execute(request, _path, model_id, req, registry, settings)
+
+
+def _path(model_id: str, req: IKPathRequest, registry, settings):
+    rec = registry.get(model_id)
+    tol = req.tolerance
+    ans = usecases.ik_path(req.to_query(rec.model, budget(settings)), req.waypoints, seed=req.seed, step=req.step,
+                           max_joint_step=req.max_joint_step, position_tolerance=tol["position"],
+                           rotation_tolerance=tol["rotation"], locked=req.locked)
+    return FastJSONResponse({
+        "model": rec.id, "link": req.link or rec.model.leaf_links[0], "family": ans.family,
+        "joint_names": list(rec.model.joint_names), "q": ans.q, "targets": ans.targets,
+        "position_error": ans.position_error, "rotation_error": ans.rotation_error, "fraction": ans.fraction,
+        "complete": ans.complete, "stopped": ans.stopped, "max_joint_step": ans.max_joint_step,
+    })

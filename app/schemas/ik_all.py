@@ -1,0 +1,97 @@
+"""Wire schemas of every IK solution, the chain families and Cartesian paths (``/ik`` with
+``solutions: "all"``, ``/ik/family``, ``/ik/path``)."""
+
+from __future__ import annotations
+
+from typing import Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .common import BasePose, JointValues, Number, QueryRequest, Vector
+from .ik import IKTolerance
+
+_LOCKED_DESC = "joints held at these values, {joint: value}"
+
+
+class IKSolutionRecord(BaseModel):
+    q: Vector = Field(description="joint values (joint_names order)")
+    position_error: float = Field(description="metres, FK of q against the target")
+    rotation_error: float = Field(description="radians")
+    within_limits: bool = Field(description="q inside the joint limits")
+    singular: bool = Field(description="a singular configuration (a representative of infinitely many solutions)")
+
+
+class IKAllResponse(BaseModel):
+    model: str
+    link: str
+    joint_names: list[str]
+    method: Literal["analytic", "search"] = Field(description="closed form, or multistart search")
+    family: str = Field(description="the chain's family (GET /models/{id}/ik/family)")
+    locked: dict[str, float]
+    count: Union[int, list[int]] = Field(description="solutions per target")
+    solutions: Union[list[IKSolutionRecord], list[list[IKSolutionRecord]]] = Field(
+        description="nearest the seed first when a seed is given; for a batch one list per target")
+    verification: dict | None = None
+
+
+class IKFamilyResponse(BaseModel):
+    link: str
+    joints: list[str] = Field(description="the free joints of the chain, root first")
+    locked: dict[str, float]
+    family: str = Field(examples=["three_parallel", "spherical_wrist_parallel_23", "general"])
+    closed_form: bool
+    max_solutions: int | None = Field(description="the most solutions the structure allows (null: not bounded)")
+    subproblems: list[int] = Field(description="the canonical subproblems of its closed form (1-4)")
+    reversed: bool = Field(description="solved on the reversed chain (a spherical shoulder)")
+    near: bool = Field(description="within a millimetre-scale / milliradian-scale tolerance of the family, not "
+                                   "exactly: the closed form seeds Newton steps on the real model")
+
+
+class PathStep(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    position: Number = Field(default=0.01, gt=0, description="metres between consecutive targets at most")
+    rotation: Number = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
+
+
+class IKPathRequest(QueryRequest):
+    link: str | None = Field(default=None, description="the link to move (default: the first leaf link)")
+    waypoints: list[BasePose] = Field(min_length=2, description="two or more poses, T_world_link")
+    seed: Union[JointValues, None] = Field(default=None, description="the start configuration (default: the solution "
+                                                                    "of the first target nearest the middle of the limits)")
+    step: PathStep = Field(default_factory=PathStep)
+    max_joint_step: Number = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
+    tolerance: IKTolerance = Field(default_factory=IKTolerance)
+    locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
+    avoid_collisions: bool = Field(default=False, description="not available yet: must be false")
+
+
+class PathStop(BaseModel):
+    index: int = Field(description="the target where the path stops")
+    reason: Literal["unreachable", "joint_jump", "limits", "collision"]
+
+
+class IKPathResponse(BaseModel):
+    model: str
+    link: str
+    family: str
+    joint_names: list[str]
+    q: list[Vector] = Field(description="the achieved rows")
+    targets: list[list[list[float]]] = Field(description="every interpolated target (4x4, root frame)")
+    position_error: list[float]
+    rotation_error: list[float]
+    fraction: float = Field(description="share of the path length achieved")
+    complete: bool
+    stopped: PathStop | None
+    max_joint_step: float = Field(description="the largest change of any joint between consecutive rows")
+
+
+IK_PATH_EXAMPLES = {
+    "straight_line": {"summary": "ur5: tool0 5 cm along x from a start configuration",
+                      "value": {"link": "tool0", "seed": [0.3, -1.0, 1.2, -0.5, 0.8, 0.2],
+                                "waypoints": [{"xyz": [0.618, 0.365, 0.296], "rpy": [1.78, 0.012, 2.66]},
+                                              {"xyz": [0.668, 0.365, 0.296], "rpy": [1.78, 0.012, 2.66]}],
+                                "step": {"position": 0.005, "rotation": 0.05}, "max_joint_step": 0.2}},
+}
+
+__all__ = ["IKSolutionRecord", "IKAllResponse", "IKFamilyResponse", "PathStep", "IKPathRequest", "PathStop",
+           "IKPathResponse", "IK_PATH_EXAMPLES"]

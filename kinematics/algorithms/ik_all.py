@@ -1,0 +1,445 @@
+"""Every inverse-kinematics solution of a link's pose: closed forms where the chain has a family,
+a dense multistart search where it has none, each answer polished and checked on the real model.
+
+For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_solutions`
+
+1. folds the ``locked`` joints into the chain and names its family
+   (:mod:`kinematics.algorithms.ik_families`);
+2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
+   allocation-free form of :mod:`kinematics.engine.ik_closed`,
+   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), or -- for a chain with no
+   closed form (``method: "numeric"``, a general 6R, chains of fewer joints) -- damped Newton
+   from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
+   finds what its seeds reach, it does not prove that nothing is missed);
+3. **polishes** every candidate with Newton steps on the real model's FK and Jacobian (the
+   compiled kernels), so that a near-family chain's closed form lands on the real solution;
+4. keeps only candidates whose FK (the FK kernel) is within the tolerances, merges duplicates
+   (revolute angles compared modulo 2π, within ``DUPLICATE``);
+5. applies the limits: ``"respect"`` lists every solution inside the limits, with each
+   ``q + 2πk`` copy of a revolute joint that fits (a ±2π joint gives two or three copies of a
+   branch); ``"ignore"`` lists each branch once, revolute angles in (−π, π];
+6. flags each solution ``within_limits`` (the listed values) and ``singular`` (the smallest
+   singular value of the free joints' 6 x n Jacobian below ``SINGULAR`` times the largest).
+
+Unreachable targets have ``count`` 0. A near-family chain has its solution count checked against
+the ideal chain's: where the polish found fewer, the search joins in for that target, and
+``complete`` is False where the real chain still has fewer solutions than the ideal one.
+
+The Puma 560 reaches a generic pose in eight ways:
+
+>>> from kinematics.io import default_catalogue
+>>> puma = default_catalogue().get("puma560_standard")
+>>> T = compile_model(puma).fk(np.array([[0.2, 0.3, -0.4, 0.5, 0.6, 0.1]]), ["tool"])[:, 0]
+>>> sol = all_solutions(puma, "tool", T, limits="ignore")
+>>> sol.family.name, sol.method, int(sol.count[0]), bool(np.nanmax(sol.position_error) < 1e-12)
+('spherical_wrist_parallel_23', 'analytic', 8, True)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..engine import ik_closed, ik_fast
+from ..engine.parallel import run_rows
+from ..engine.poe import PoEModel, compile_model
+from ..errors import KinematicsError
+from ..model.robot import RobotModel
+from ..spatial.transforms import exp_screws, inverse_transform
+from ..tolerances import LIMIT_TOLERANCE
+from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
+from .ik_families import Chain, Family, detect, reduce_chain
+
+LIMIT_POLICIES = ("respect", "ignore")
+METHODS = ("auto", "analytic", "numeric")
+#: Newton steps on the real model after the closed form (exact family, near family) and in the search
+POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 60, 100
+#: a near family's least-squares branch points are seeded this far (rad or m) on either side
+NEAR_SPREAD = 0.05
+#: seeds of the multistart search (per target)
+SEARCH_SEEDS = 512
+#: two solutions closer than this (rad or m, largest joint difference) are one
+DUPLICATE = 1e-6
+#: a listed solution's error above this (m + rad) gets up to FINAL_STEPS more Newton steps
+TIGHT, FINAL_STEPS = 1e-12, 30
+#: a squared pose error below this is converged (Newton stops for that row)
+CONVERGED = 1e-28
+#: targets per thread of the closed-form kernel at least
+CLOSED_FORM_MIN_ROWS = 64
+#: σ_min / σ_max of the Jacobian below this: a singular configuration
+SINGULAR = 1e-7
+
+
+@dataclass(frozen=True, eq=False)
+class AllSolutions:
+    """Every solution of N targets.
+
+    q: (N, K, dof) padded with NaN (K the largest count); count: (N,); within_limits, singular:
+    (N, K) bool (False in padding); position_error (metres), rotation_error (radians): (N, K), NaN in
+    padding; family: the chain's :class:`~kinematics.algorithms.ik_families.Family`; method:
+    ``"analytic"`` or ``"search"``; complete: (N,) False where a near-family branch was lost.
+    """
+
+    q: np.ndarray
+    count: np.ndarray
+    within_limits: np.ndarray
+    singular: np.ndarray
+    position_error: np.ndarray
+    rotation_error: np.ndarray
+    family: Family
+    method: str
+    complete: np.ndarray
+
+
+def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """(K, 6): position error and rotation vector of ``R_target Rᵀ`` (world axes), compiled row by row."""
+    e = np.empty((F.shape[0], 6))
+    ik_fast.pose_error_rows(np.ascontiguousarray(F), np.ascontiguousarray(targets), e)
+    return e
+
+
+def newton(poe: PoEModel, link: str, Q: np.ndarray, targets: np.ndarray, columns: np.ndarray, steps: int,
+           tool: np.ndarray | None = None, position_only: bool = False, damped: bool = False) -> np.ndarray:
+    """``steps`` Levenberg-Marquardt steps moving the ``columns`` of ``Q`` (K, dof) towards ``targets``
+    (K, 4, 4); returns the new Q (K, dof).
+
+    Each row keeps its own damping λ: a step that lowers the squared error is taken and λ falls
+    (/4, down to 1e-15: pure Newton, quadratic convergence), a step that does not is refused and λ
+    rises (x8). ``damped`` starts from λ = 1e-2 (far from a solution) instead of 1e-12, and bounds
+    every step to 0.5 rad (or m) per joint.
+    """
+    Q = np.array(Q, dtype=float)
+    rows = slice(0, 3) if position_only else slice(0, 6)
+    n = len(columns)
+    K = len(Q)
+    if K == 0:
+        return Q
+    lam = np.full(K, 1e-2 if damped else 1e-12)
+
+    def error(Qm, Tm=targets):
+        e = _errors6(poe.fk(Qm, [link], tool=tool)[:, 0], Tm)[:, rows]
+        return e, np.sum(e * e, axis=1)
+
+    e, cost = error(Q)
+    active = np.flatnonzero(cost > CONVERGED)
+    for _ in range(steps):
+        if active.size == 0:
+            break
+        # a row leaves once converged, so its steps do not depend on the other rows of the batch
+        Qa, ea = Q[active], e[active]
+        J = poe.jacobian(Qa, link, "local_world_aligned", tool=tool)[:, rows][:, :, columns]
+        # the normal equations row by row (compiled): the same arithmetic for a row alone and in a batch
+        dq = np.empty((len(active), n))
+        ik_fast.damped_steps(np.ascontiguousarray(J), np.ascontiguousarray(ea), np.ascontiguousarray(lam[active]), dq)
+        if damped:
+            big = np.abs(dq).max(axis=1, initial=0.0)
+            dq *= np.minimum(1.0, 0.5 / np.maximum(big, 1e-300))[:, None]
+        trial = Qa.copy()
+        trial[:, columns] += dq
+        e2, cost2 = error(trial, targets[active])
+        better = cost2 < cost[active]
+        took = active[better]
+        Q[took], e[took], cost[took] = trial[better], e2[better], cost2[better]
+        lam[active] = np.where(better, np.maximum(lam[active] / 4.0, 1e-15), np.minimum(lam[active] * 8.0, 1e6))
+        # a row leaves once converged, or once stuck (its damping at the ceiling: no step lowers its error)
+        active = active[(cost[active] > CONVERGED) & (lam[active] < 1e6)]
+    return Q
+
+
+def _halton(n: int, dim: int) -> np.ndarray:
+    """The first n points (n, dim) of the Halton sequence in [0, 1)^dim (bases: the first primes)."""
+    primes = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29][:dim]
+    out = np.empty((n, dim))
+    for d, b in enumerate(primes):
+        for i in range(n):
+            f, x, k = 1.0, 0.0, i + 1
+            while k > 0:
+                f /= b
+                x += f * (k % b)
+                k //= b
+            out[i, d] = x
+    return out
+
+
+def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
+    """(count, n) seeds of the chain's free joints: revolute over (−π, π], prismatic over its limits."""
+    u = _halton(count, chain.n)
+    lo = np.where(chain.revolute, -np.pi, model.lower_limits[chain.columns])
+    hi = np.where(chain.revolute, np.pi, model.upper_limits[chain.columns])
+    lo = np.where(np.isfinite(lo), lo, -1.0)
+    hi = np.where(np.isfinite(hi), hi, 1.0)
+    return lo + u * (hi - lo)
+
+
+def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
+    ideal = fam.ideal
+    targets = inverse_transform(T_root) if fam.reversed else T_root
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer
+    N = G.shape[0]
+    Q = np.zeros((N, ik_closed.MAX_CANDIDATES, 6))
+    count = np.zeros(N, dtype=np.int64)
+    flag = np.zeros((N, ik_closed.MAX_CANDIDATES), dtype=np.int64)
+    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
+    if spread is None:
+        spread = NEAR_SPREAD if fam.near else 0.0
+    centre = np.ascontiguousarray(fam.centre)
+
+    def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
+        if fam.kernel == "spherical_wrist_search":
+            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, Q[a:b], count[a:b], flag[a:b])
+        elif fam.kernel == "spherical_wrist":
+            ik_fast.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
+                                    Q[a:b], count[a:b], flag[a:b])
+        else:
+            ik_fast.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
+
+    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
+    if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
+        Q = -Q[:, :, ::-1]
+    return Q, count
+
+
+def _wrap_revolute(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray:
+    q = q.copy()
+    cols = chain.columns[chain.revolute]
+    w = np.mod(q[..., cols] + np.pi, 2 * np.pi) - np.pi
+    q[..., cols] = np.where(w <= -np.pi + 1e-15, np.pi, w)
+    return q
+
+
+def _copies(model: RobotModel, chain: Chain, q: np.ndarray) -> list[np.ndarray]:
+    """Every q + 2πk copy (revolute joints with limits) within the limits; [] when none fits."""
+    options = []
+    lo, hi = model.lower_limits, model.upper_limits
+    cont = model.continuous
+    for c, rev in zip(chain.columns, chain.revolute):
+        v = q[c]
+        if rev and not cont[c] and np.isfinite(lo[c]) and np.isfinite(hi[c]):
+            k0 = int(np.ceil((lo[c] - LIMIT_TOLERANCE - v) / (2 * np.pi)))
+            k1 = int(np.floor((hi[c] + LIMIT_TOLERANCE - v) / (2 * np.pi)))
+            vals = [min(max(v + 2 * np.pi * k, lo[c]), hi[c]) for k in range(k0, k1 + 1)]
+        else:
+            vals = [v] if (lo[c] - LIMIT_TOLERANCE <= v <= hi[c] + LIMIT_TOLERANCE) else []
+            vals = [min(max(x, lo[c]), hi[c]) for x in vals]
+        if not vals:
+            return []
+        options.append(vals)
+    out = [q.copy()]
+    for c, vals in zip(chain.columns, options):
+        nxt = []
+        for base in out:
+            for v in vals:
+                b = base.copy(); b[c] = v; nxt.append(b)
+        out = nxt
+    return out
+
+
+def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
+                  tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
+                  method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
+                  position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
+                  rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE,
+                  search_seeds: int = SEARCH_SEEDS) -> AllSolutions:
+    """Every solution putting ``link`` (or ``tool`` on it) at ``targets`` (N, 4, 4), root frame
+    unless ``base`` (``T_world_root``, (4, 4) or (N, 4, 4)) is given. ``seed`` (dof,) or (N, dof):
+    solutions nearest it first, and the values of joints off the chain. See the module text."""
+    if limits not in LIMIT_POLICIES:
+        raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
+    if method not in METHODS:
+        raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
+    chain = reduce_chain(model, link, locked, tool)
+    fam = detect(chain)
+    if fam.name == "redundant":
+        raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
+                              f"lock {chain.n - 6} of them (locked)")
+    if method == "analytic" and not fam.closed_form:
+        raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
+                              "use 'auto' or 'numeric'")
+    position_only = mode == "position"
+    if position_only and chain.n > 3:
+        raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
+                              "so a position alone has infinitely many solutions; give a pose, or lock joints")
+    # a family's compiled kernel: its closed form, or the bracketing search of a spherical wrist on a general arm
+    use_closed = bool(fam.kernel) and method != "numeric" and not position_only
+    poe = compile_model(model)
+    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    N = targets.shape[0]
+    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
+    dof = model.dof
+    base_q = np.zeros((N, dof))
+    if seed is not None:
+        base_q[:] = np.broadcast_to(np.asarray(seed, dtype=float), (N, dof))
+    for name, v in chain.locked.items():
+        base_q[:, model.q_index[name]] = v
+    if use_closed:
+        cand, counts = _closed_form_candidates(fam, T_root)
+        steps, damped = (NEAR_STEPS if fam.near else POLISH_STEPS), False
+    else:
+        seeds = _search_seeds(model, chain, search_seeds)
+        cand = np.broadcast_to(seeds, (N,) + seeds.shape)
+        counts = np.full(N, len(seeds))
+        steps, damped = SEARCH_STEPS, True
+    owner = np.repeat(np.arange(N), counts)
+    Q = base_q[owner].copy()
+    rows = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
+    Q[:, chain.columns] = rows
+    Tt = T_root[owner]
+    if len(Q) and not damped:
+        # the closed form: measure once, polish only the rows not yet on a solution (most are)
+        Q = _wrap_revolute(model, chain, Q)
+        finite = np.all(np.isfinite(Q), axis=1)
+        p0, r0 = pose_errors(poe.fk(np.where(finite[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+        todo = np.flatnonzero(finite & ~((p0 <= TIGHT) & (r0 <= TIGHT)))
+        if todo.size:
+            Q[todo] = newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool, position_only, False)
+    elif len(Q):
+        Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
+        if damped:  # then undamped steps on the rows that came near a solution: quadratic convergence onto it
+            e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
+            near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
+            Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
+    Q = _wrap_revolute(model, chain, Q)
+    ok = np.zeros(len(Q), bool)
+    if len(Q):
+        ok = np.all(np.isfinite(Q), axis=1)
+        if not damped:  # measured above; again only where Newton moved a row
+            p, r = p0, r0
+            if todo.size:
+                p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
+                                               Tt[todo])
+        else:
+            p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+        # rows near a solution but not on it to machine precision (a double root where two branches
+        # meet converges only linearly): more Newton steps before the check
+        slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
+                              & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
+        if slow.size:
+            # (an exact closed form lands on its solutions: a few steps are enough there)
+            final = POLISH_STEPS if use_closed and not fam.near else FINAL_STEPS
+            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, final, tool,
+                                                          position_only, False))
+            p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
+        ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    keep = np.zeros(len(Q), bool)
+    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    rows, owner = Q[keep], owner[keep]
+    # the errors measured on these very rows (None: measured again in _pack, after any change of rows)
+    errors = (p[keep], r[keep]) if len(Q) else None
+    complete = np.ones(N, bool)
+    if use_closed and fam.near:
+        # a near family: where the polish found fewer solutions than the ideal chain has (a branch
+        # lost by a singularity or the edge of the reach), the search joins in for that target
+        found = np.bincount(owner, minlength=N)
+        nominal = _nominal_counts(fam, T_root, position_tolerance, rotation_tolerance)
+        short = np.flatnonzero(found < nominal)
+        if short.size:
+            extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
+                                  method="numeric", mode=mode, position_tolerance=position_tolerance,
+                                  rotation_tolerance=rotation_tolerance, search_seeds=search_seeds)
+            more = [np.concatenate([rows[owner == n], _with_free(base_q[n], chain, extra.q[i, :extra.count[i]])])
+                    for i, n in enumerate(short)]
+            keep_rows = [rows[owner == n] for n in range(N)]
+            for i, n in enumerate(short):
+                keep_rows[n] = more[i]
+            owner = np.concatenate([np.full(len(r), n, dtype=np.intp) for n, r in enumerate(keep_rows)])
+            rows = np.concatenate(keep_rows) if owner.size else rows
+            starts = np.concatenate([[0], np.cumsum([len(r) for r in keep_rows])]).astype(np.intp)
+            keep = np.zeros(len(rows), bool)
+            ik_closed.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE,
+                                    keep)
+            rows, owner = rows[keep], owner[keep]
+            found = np.bincount(owner, minlength=N)
+            errors = None
+        complete = found >= nominal
+    if limits == "respect":
+        expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
+        owner = np.array([o for o, _ in expanded], dtype=np.intp)
+        rows = np.array([c for _, c in expanded]).reshape(len(expanded), dof)
+        errors = None
+    if seed is not None and len(rows):
+        order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
+        rows, owner = rows[order], owner[order]
+        errors = None if errors is None else (errors[0][order], errors[1][order])
+    return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam,
+                 "analytic" if use_closed and fam.closed_form else "search",
+                 complete, position_only, errors)
+
+
+def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
+    """Rows of ``Q`` (K, dof) with the joints off the chain taken from ``base`` (dof,)."""
+    out = np.repeat(base[None], len(Q), 0)
+    out[:, chain.columns] = Q[:, chain.columns]
+    return out
+
+
+def _nominal_counts(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> np.ndarray:
+    """How many distinct solutions the *ideal* chain has for each target (N,): its closed form's
+    candidates that meet the tolerances on the ideal chain's own FK."""
+    cand, counts = _closed_form_candidates(fam, T_root, 0.0)
+    N = len(T_root)
+    owner = np.repeat(np.arange(N), counts)
+    c = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, 6))
+    if fam.reversed:
+        c = -c[:, ::-1]  # back to the ideal (reversed) chain's own joint values
+    ideal = fam.ideal
+    E = exp_screws(ideal.h, ideal.r, ideal.revolute, c)
+    F = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
+    for j in range(ideal.n):
+        F = np.einsum("nij,njk->nik", F, E[:, j])
+    F = np.einsum("nij,jk->nik", F, ideal.M)
+    goal = (inverse_transform(T_root) if fam.reversed else T_root)[owner]
+    p, r = pose_errors(F, goal)
+    ok = np.isfinite(p) & (p <= position_tolerance) & (r <= rotation_tolerance)
+    keep = np.zeros(len(c), bool)
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    ik_closed.distinct_rows(np.ascontiguousarray(c), ok, starts, np.arange(ideal.n, dtype=np.intp), ideal.revolute,
+                            DUPLICATE, keep)
+    return np.bincount(owner[keep], minlength=N)
+
+
+def _singular(J: np.ndarray) -> np.ndarray:
+    """σ_min / σ_max of each J (R, m, n), m >= n, at most :data:`SINGULAR`. A square J whose
+    ``|det J| / ‖J‖_F^n`` (a lower bound of σ_min / σ_max) is above the threshold is regular without
+    more work; the others get the eigenvalues of ``JᵀJ``."""
+    out = np.zeros(len(J), bool)
+    todo = np.arange(len(J))
+    if J.shape[1] == J.shape[2]:
+        F = np.linalg.norm(J, axis=(1, 2))
+        bound = np.abs(np.linalg.det(J)) / np.maximum(F, 1e-300) ** J.shape[2]
+        todo = np.flatnonzero(~(bound > SINGULAR))
+    if todo.size:
+        lam = np.linalg.eigvalsh(np.einsum("nri,nrj->nij", J[todo], J[todo]))
+        out[todo] = lam[:, 0] <= (SINGULAR ** 2) * np.maximum(lam[:, -1], 1e-300)
+    return out
+
+
+def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only,
+          errors=None) -> AllSolutions:
+    """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target."""
+    dof = model.dof
+    count = np.bincount(owner, minlength=N).astype(np.int64) if len(rows) else np.zeros(N, np.int64)
+    K = int(count.max(initial=0))
+    q = np.full((N, K, dof), np.nan)
+    within = np.zeros((N, K), bool)
+    singular = np.zeros((N, K), bool)
+    pe = np.full((N, K), np.nan)
+    re = np.full((N, K), np.nan)
+    if len(rows):
+        p, r = errors if errors is not None else pose_errors(poe.fk(rows, [link], tool=tool)[:, 0], T_root[owner])
+        J = poe.jacobian(rows, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
+        if position_only:
+            J = J[:, :3]
+        sing = _singular(J) if J.shape[1] >= chain.n else np.ones(len(rows), bool)
+        inside = np.all((rows >= model.lower_limits - LIMIT_TOLERANCE) & (rows <= model.upper_limits + LIMIT_TOLERANCE),
+                        axis=1)
+        starts = np.concatenate([[0], np.cumsum(count)[:-1]])
+        slot = np.arange(len(rows)) - starts[owner]
+        q[owner, slot] = rows
+        within[owner, slot] = inside
+        singular[owner, slot] = sing
+        pe[owner, slot] = p
+        re[owner, slot] = r
+    return AllSolutions(q, count, within, singular, pe, re, fam, method, complete)

@@ -1,0 +1,81 @@
+"""``kinematics ik-path``: a Cartesian path through waypoints, solved by continuation.
+
+Waypoints are read like ``kinematics ik`` targets (CSV ``x,y,z,qw,qx,qy,qz``, ``.npy``, JSON
+lines); the rows of joint values go to OUTPUT as CSV (the joint names as header), and one summary
+line to stderr: rows, fraction achieved and, where the path stops, the target index and why. The
+exit code is 1 when the path is not complete.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from .. import api
+from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
+from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from .ik import parse_locked
+from .pipeline import ModelLoadError, _fail, _model_options, _quietly, load_model, open_input
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "ik-path", help="a Cartesian path through waypoints that never jumps branches",
+        description="Joint values moving --link along straight lines and rotation geodesics through the "
+        "waypoints of INPUT, each target the solution nearest the previous row; stops where no solution "
+        "is within --max-joint-step and says why.",
+        epilog="example:\n  kinematics ik-path --model ur5 --link tool0 waypoints.csv --seed=0.3,-1,1.2,-0.5,0.8,0.2",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    _model_options(p)
+    p.add_argument("input", metavar="INPUT", help="waypoints: .csv, .npy or .jsonl (as `kinematics ik` targets)")
+    p.add_argument("-o", "--output", default="-", metavar="OUTPUT", help="CSV of the rows (default stdout)")
+    p.add_argument("--input-format", choices=("csv", "npy", "jsonl"), help="format of INPUT")
+    p.add_argument("--time-column", help=argparse.SUPPRESS)
+    p.add_argument("--chunk", type=int, default=100_000, help=argparse.SUPPRESS)
+    p.add_argument("--link", metavar="NAME", help="the link (default: the first leaf link)")
+    p.add_argument("--seed", metavar="Q1,Q2,...", help="the start configuration (write --seed=-0.5,... for a negative first)")
+    p.add_argument("--step-position", type=float, default=DEFAULT_STEP_POSITION, metavar="M")
+    p.add_argument("--step-rotation", type=float, default=DEFAULT_STEP_ROTATION, metavar="RAD")
+    p.add_argument("--max-joint-step", type=float, default=DEFAULT_MAX_JOINT_STEP, metavar="RAD")
+    p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[])
+    p.set_defaults(func=run_ik_path)
+
+
+def run_ik_path(args) -> int:
+    try:
+        model = load_model(args)
+    except ModelLoadError as exc:
+        return _fail("ik-path", str(exc), EXIT_MODEL)
+    locked = parse_locked(args.locked)
+    if isinstance(locked, str):
+        return _fail("ik-path", locked, EXIT_USAGE)
+    seed = None
+    if args.seed is not None:
+        try:
+            seed = [float(v) for v in args.seed.split(",")]
+        except ValueError:
+            return _fail("ik-path", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
+    return _quietly(_run, args, model, seed, locked)
+
+
+def _run(args, model, seed, locked) -> int:
+    source = sys.stdin if args.input == "-" else args.input
+    fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
+    with open_input(args, model, source, fmt, targets=True) as rows:
+        W = np.concatenate([T for _, T in rows])
+    ans = api.ik_path(model, W, link=args.link, seed=seed, locked=locked or None, max_joint_step=args.max_joint_step,
+                      step={"position": args.step_position, "rotation": args.step_rotation})
+    out = sys.stdout if args.output == "-" else open(args.output, "w", encoding="utf-8")
+    try:
+        out.write(",".join(model.joint_names) + "\n")
+        for q in ans.q:
+            out.write(",".join(repr(float(v)) for v in q) + "\n")
+    finally:
+        if out is not sys.stdout:
+            out.close()
+    stop = "" if ans.stopped is None else f"; stopped at target {ans.stopped['index']}: {ans.stopped['reason']}"
+    print(f"ik-path: {len(ans.q)}/{len(ans.targets)} targets, fraction {ans.fraction:.4g}, largest joint step "
+          f"{ans.max_joint_step:.3g} ({ans.family}){stop}", file=sys.stderr)
+    return EXIT_OK if ans.complete else EXIT_DISAGREE

@@ -1,0 +1,451 @@
+"""The closed forms of :mod:`kinematics.engine.ik_closed` on 3-tuples: no array is allocated per
+target (the array forms allocate a few hundred small arrays per target, which costs more than the
+arithmetic). The same formulas, the same candidates in the same order; the family tests check both
+through :func:`kinematics.algorithms.ik_all.all_solutions`, and ``tests/kinematics/engine`` checks
+that the two give the same candidates."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .ik import rotation_log
+from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO
+
+_JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+
+
+@nb.njit(**_JIT)
+def v(a):
+    return (a[0], a[1], a[2])
+
+
+@nb.njit(**_JIT)
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@nb.njit(**_JIT)
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@nb.njit(**_JIT)
+def scale(s, a):
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@nb.njit(**_JIT)
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@nb.njit(**_JIT)
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@nb.njit(**_JIT)
+def norm(a):
+    return math.sqrt(dot(a, a))
+
+
+@nb.njit(**_JIT)
+def rot(k, theta, p):
+    """``R(k, θ) p``."""
+    c, s = math.cos(theta), math.sin(theta)
+    kp = dot(k, p)
+    kx = cross(k, p)
+    w = (1.0 - c) * kp
+    return (c * p[0] + s * kx[0] + w * k[0], c * p[1] + s * kx[1] + w * k[1], c * p[2] + s * kx[2] + w * k[2])
+
+
+@nb.njit(**_JIT)
+def mat(G, p):
+    """``G[:3, :3] p``."""
+    return (G[0, 0] * p[0] + G[0, 1] * p[1] + G[0, 2] * p[2], G[1, 0] * p[0] + G[1, 1] * p[1] + G[1, 2] * p[2],
+            G[2, 0] * p[0] + G[2, 1] * p[1] + G[2, 2] * p[2])
+
+
+@nb.njit(**_JIT)
+def matT(G, p):
+    """``G[:3, :3]ᵀ p``."""
+    return (G[0, 0] * p[0] + G[1, 0] * p[1] + G[2, 0] * p[2], G[0, 1] * p[0] + G[1, 1] * p[1] + G[2, 1] * p[2],
+            G[0, 2] * p[0] + G[1, 2] * p[1] + G[2, 2] * p[2])
+
+
+@nb.njit(**_JIT)
+def trig(A, B, C):
+    """(θa, θb, count, flag) of ``A cos θ + B sin θ = C`` (as :func:`~kinematics.engine.subproblems.trig_solve`)."""
+    r = math.hypot(A, B)
+    sc = max(r, abs(C), 1.0)
+    if r <= ZERO * sc:
+        return 0.0, 0.0, 1, (DEGENERATE if abs(C) <= ZERO * sc else LEAST_SQUARES)
+    phi = math.atan2(B, A)
+    x = C / r
+    if x >= 1.0 + TANGENT:
+        return phi, 0.0, 1, LEAST_SQUARES
+    if x <= -1.0 - TANGENT:
+        return phi + math.pi, 0.0, 1, LEAST_SQUARES
+    if abs(abs(x) - 1.0) <= TANGENT:
+        return (phi if x > 0 else phi + math.pi), 0.0, 1, EXACT
+    a = math.acos(x)
+    return phi + a, phi - a, 2, EXACT
+
+
+@nb.njit(**_JIT)
+def sp1(p1, p2, k):
+    kp1, kp2 = dot(k, p1), dot(k, p2)
+    a = sub(p1, scale(kp1, k))
+    b = sub(p2, scale(kp2, k))
+    na, nb_ = norm(a), norm(b)
+    sc = max(na, nb_, 1.0)
+    if na <= ZERO * sc or nb_ <= ZERO * sc:
+        return 0.0, DEGENERATE
+    theta = math.atan2(dot(k, cross(a, b)), dot(a, b))
+    if abs(na - nb_) > 1e-9 * sc or abs(kp1 - kp2) > 1e-9 * sc:
+        return theta, LEAST_SQUARES
+    return theta, EXACT
+
+
+@nb.njit(**_JIT)
+def sp3(p1, p2, k, d):
+    kp1, kp2 = dot(k, p1), dot(k, p2)
+    a = sub(p1, scale(kp1, k))
+    b = sub(p2, scale(kp2, k))
+    return trig(2.0 * dot(a, b), 2.0 * dot(cross(k, a), b), dot(a, a) + dot(b, b) + (kp1 - kp2) ** 2 - d * d)
+
+
+@nb.njit(**_JIT)
+def sp4(h, p, k, d):
+    kp = dot(k, p)
+    hk = dot(h, k)
+    return trig(dot(h, p) - hk * kp, dot(h, cross(k, p)), d - hk * kp)
+
+
+@nb.njit(**_JIT)
+def sp2(p1, p2, k1, k2):
+    """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
+    c12 = dot(k1, k2)
+    s2 = 1.0 - c12 * c12
+    if s2 <= 1e-14:
+        return 0.0, 0.0, 0.0, 0.0, 1, DEGENERATE
+    h1, h2 = dot(k1, p1), dot(k2, p2)
+    alpha = (h1 - c12 * h2) / s2
+    beta = (h2 - c12 * h1) / s2
+    n = cross(k1, k2)
+    base = add(scale(alpha, k1), scale(beta, k2))
+    length2 = 0.5 * (dot(p1, p1) + dot(p2, p2))
+    g2 = (length2 - dot(base, base)) / s2
+    flag = EXACT
+    count = 2
+    sc = max(length2, 1.0)
+    if g2 < -1e-12 * sc:
+        flag, g2, count = LEAST_SQUARES, 0.0, 1
+    elif g2 <= 1e-12 * sc:
+        g2, count = 0.0, 1
+    g = math.sqrt(g2)
+    x = add(base, scale(g, n))
+    a0, f1 = sp1(p1, x, k1)
+    b0, f2 = sp1(p2, x, k2)
+    if f1 == DEGENERATE or f2 == DEGENERATE:
+        flag = DEGENERATE
+    a1 = b1 = 0.0
+    if count == 2:
+        x = sub(base, scale(g, n))
+        a1, f1 = sp1(p1, x, k1)
+        b1, f2 = sp1(p2, x, k2)
+        if f1 == DEGENERATE or f2 == DEGENERATE:
+            flag = DEGENERATE
+    return a0, a1, b0, b1, count, flag
+
+
+@nb.njit(**_JIT)
+def spread(ta, tb, n, flag, width):
+    """A least-squares branch point as two seeds ``φ ± width`` (``width`` > 0, near families)."""
+    if flag == LEAST_SQUARES and n == 1 and width > 0.0:
+        return ta - width, ta + width, 2
+    return ta, tb, n
+
+
+@nb.njit(**_JIT)
+def perpendicular(k):
+    i = 0
+    if abs(k[1]) < abs(k[i]):
+        i = 1
+    if abs(k[2]) < abs(k[i]):
+        i = 2
+    e = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+    u = cross(k, e)
+    return scale(1.0 / norm(u), u)
+
+
+@nb.njit(**_JIT)
+def _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, f):
+    Q[t, n, 0], Q[t, n, 1], Q[t, n, 2] = q1, q2, q3
+    Q[t, n, 3], Q[t, n, 4], Q[t, n, 5] = q4, q5, q6
+    flag[t, n] = f
+
+
+@nb.njit(**_JIT)
+def three_parallel(G, h_, r_, c_, width, Q, count, flag):
+    """As :func:`kinematics.engine.ik_closed.three_parallel`."""
+    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
+    r0, r1, r2, r3 = v(r_[0]), v(r_[1]), v(r_[2]), v(r_[3])
+    c = v(c_)
+    s3 = 1.0 if dot(h1, h2) > 0 else -1.0
+    s4 = 1.0 if dot(h1, h3) > 0 else -1.0
+    u = perpendicular(h1)
+    for t in range(G.shape[0]):
+        g = G[t]
+        p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
+        n = 0
+        ta, tb, n1, f1 = sp4(h1, sub(p, r0), h0, dot(h1, sub(c, r0)))
+        ta, tb, n1 = spread(ta, tb, n1, f1, width)
+        for i in range(n1):
+            q1 = -(ta if i == 0 else tb)
+            a = rot(h0, -q1, mat(g, h5))
+            pp = add(r0, rot(h0, -q1, sub(p, r0)))
+            t5a, t5b, n5, f5 = sp4(h1, h5, h4, dot(h1, a))
+            t5a, t5b, n5 = spread(t5a, t5b, n5, f5, width)
+            for j in range(n5):
+                q5 = t5a if j == 0 else t5b
+                m6, f6 = sp1(rot(h4, -q5, h1), matT(g, rot(h0, q1, h1)), h5)
+                q6 = -m6
+                # R234 x = R1ᵀ Rd R6ᵀ R5ᵀ x
+                Ru = rot(h0, -q1, mat(g, rot(h5, -q6, rot(h4, -q5, u))))
+                theta, f234 = sp1(u, Ru, h1)
+                Rc = rot(h0, -q1, mat(g, rot(h5, -q6, rot(h4, -q5, sub(c, r3)))))
+                p4 = sub(pp, Rc)
+                t3a, t3b, n3, f3 = sp3(sub(r3, r2), sub(r1, r2), h2, norm(sub(p4, r1)))
+                t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                for k in range(n3):
+                    q3 = t3a if k == 0 else t3b
+                    x = add(r2, rot(h2, q3, sub(r3, r2)))
+                    q2, f2 = sp1(sub(x, r1), sub(p4, r1), h1)
+                    q4 = s4 * (theta - q2 - s3 * q3)
+                    _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, max(f1, f5, f6, f234, f3, f2))
+                    n += 1
+        count[t] = n
+
+
+@nb.njit(**_JIT)
+def _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, fpos, h0, h1, h2, h3, h4, h5, u):
+    """The orientation part of a spherical wrist for one (q1, q2, q3): up to two candidates at n."""
+    def back(x):
+        y = rot(h0, -q1, x)
+        y = rot(h1, -q2, y)
+        if not prismatic3:
+            y = rot(h2, -q3, y)
+        return y
+    w6 = back(mat(g, h5))
+    a0, a1, b0, b1, m, f45 = sp2(w6, h5, h3, h4)
+    for b in range(m):
+        q4 = -(a0 if b == 0 else a1)
+        q5 = b0 if b == 0 else b1
+        vv = rot(h4, -q5, rot(h3, -q4, back(mat(g, u))))
+        q6, f6 = sp1(u, vv, h5)
+        _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, max(fpos, f45, f6))
+        n += 1
+    return n
+
+
+@nb.njit(**_JIT)
+def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
+    """As :func:`kinematics.engine.ik_closed.spherical_wrist`."""
+    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
+    r0, r1, r2 = v(r_[0]), v(r_[1]), v(r_[2])
+    c = v(c_)
+    u = perpendicular(h5)
+    for t in range(G.shape[0]):
+        g = G[t]
+        p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
+        n = 0
+        if position == 0:  # axes 2 ∥ 3
+            ta, tb, n1, f1 = sp4(h1, sub(p, r0), h0, dot(h1, sub(c, r0)))
+            ta, tb, n1 = spread(ta, tb, n1, f1, width)
+            for i in range(n1):
+                q1 = -(ta if i == 0 else tb)
+                pp = add(r0, rot(h0, -q1, sub(p, r0)))
+                t3a, t3b, n3, f3 = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
+                t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                for j in range(n3):
+                    q3 = t3a if j == 0 else t3b
+                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+        elif position == 1 or position == 2:  # axes 1, 2 meet at o
+            o = r0
+            d = norm(sub(p, o))
+            for j in range(2):
+                if position == 1:
+                    t3a, t3b, n3, f3 = sp3(sub(c, r2), sub(o, r2), h2, d)
+                    t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                    if j >= n3:
+                        break
+                    q3 = t3a if j == 0 else t3b
+                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                else:
+                    co = sub(c, o)
+                    bq = dot(h2, co)
+                    disc = bq * bq - (dot(co, co) - d * d)
+                    f3 = EXACT
+                    if disc < 0.0:
+                        disc, f3 = 0.0, LEAST_SQUARES
+                    s = math.sqrt(disc)
+                    if j == 1 and s == 0.0:
+                        break
+                    q3 = -bq + s if j == 0 else -bq - s
+                    x = add(c, scale(q3, h2))
+                a0, a1, b0, b1, m, f2 = sp2(sub(p, o), sub(x, o), h0, h1)
+                for i in range(m):
+                    q1 = -(a0 if i == 0 else a1)
+                    q2 = b0 if i == 0 else b1
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f2, f3), h0, h1, h2, h3, h4, h5, u)
+        else:  # axes 1 ∥ 2
+            t3a, t3b, n3, f3 = sp4(h0, sub(c, r2), h2, dot(h0, sub(p, r2)))
+            t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+            for j in range(n3):
+                q3 = t3a if j == 0 else t3b
+                x = add(r2, rot(h2, q3, sub(c, r2)))
+                t2a, t2b, n2, f2 = sp3(sub(x, r1), sub(r0, r1), h1, norm(sub(p, r0)))
+                t2a, t2b, n2 = spread(t2a, t2b, n2, f2, width)
+                for i in range(n2):
+                    q2 = t2a if i == 0 else t2b
+                    y = add(r1, rot(h1, q2, sub(x, r1)))
+                    q1, f1 = sp1(sub(y, r0), sub(p, r0), h0)
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+        count[t] = n
+
+
+#: the position part of a spherical wrist on a general 3R arm: a search over q1
+POS_SEARCH = 4
+#: samples of q1 over a turn (a sign change between two samples is bracketed and refined)
+SEARCH_SAMPLES = 1440
+
+
+@nb.njit(**_JIT)
+def _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b):
+    """Residual of branch b (0, 1) of the position part at q1: the height along axis 2 of the wrist
+    centre turned by q3 (subproblem 3: its distance to axis 2's point right) minus the target's."""
+    pp = add(r0, rot(h0, -q1, sub(p, r0)))
+    ta, tb, n, f = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
+    q3 = ta if (b == 0 or n == 1) else tb
+    x = add(r2, rot(h2, q3, sub(c, r2)))
+    return dot(h1, sub(x, r1)) - dot(h1, sub(pp, r1)), q3, pp
+
+
+@nb.njit(**_JIT)
+def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
+    """Candidates of a spherical wrist (axes 4, 5, 6 meet at c) on a general 3R positioning arm.
+
+    ``E1 E2 E3 c = p``: for each q1 the point ``p' = E1⁻¹ p`` must be reached by joints 2, 3.
+    Joint 2 keeps the distance to its axis point ``r2`` (subproblem 3 gives the two q3) and the height
+    along its axis, so each branch has the residual ``h2·(E3 c − r2) − h2·(p' − r2)`` in q1 (beyond the
+    reach of subproblem 3 its least-squares q3 continues it). ``samples`` values of q1 over a turn
+    bracket every sign change; bisection refines each to machine precision, then subproblem 1 gives
+    q2 and the wrist part q4, q5, q6. A root of even multiplicity (a tangency) or two roots within one
+    sample step would be missed; a root in the least-squares continuation is not a solution, and the
+    caller's FK check drops it."""
+    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
+    r0, r1, r2 = v(r_[0]), v(r_[1]), v(r_[2])
+    c = v(c_)
+    u = perpendicular(h5)
+    step = 2.0 * math.pi / samples
+    for t in range(G.shape[0]):
+        g = G[t]
+        p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
+        n = 0
+        for b in range(2):
+            a = -math.pi
+            fa, _, _ = _branch(a, p, c, r0, r1, r2, h0, h1, h2, b)
+            for s in range(1, samples + 1):
+                bq = -math.pi + s * step
+                fb, _, _ = _branch(bq, p, c, r0, r1, r2, h0, h1, h2, b)
+                if fa == 0.0 or (fa < 0.0) != (fb < 0.0):
+                    lo, hi, flo = a, bq, fa
+                    for _ in range(60):
+                        mid = 0.5 * (lo + hi)
+                        fm, _, _ = _branch(mid, p, c, r0, r1, r2, h0, h1, h2, b)
+                        if (fm < 0.0) == (flo < 0.0) and fm != 0.0:
+                            lo, flo = mid, fm
+                        else:
+                            hi = mid
+                    q1 = 0.5 * (lo + hi)
+                    _, q3, pp = _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b)
+                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
+                    if n + 2 <= Q.shape[1]:
+                        n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, False, f2, h0, h1, h2, h3, h4, h5, u)
+                a, fa = bq, fb
+        count[t] = n
+
+
+@nb.njit(**_JIT)
+def damped_steps(J, e, lam, dq):
+    """``dq[i] = (J_iᵀ J_i + λ_i I)⁻¹ J_iᵀ e_i`` for each row i (J (K, m, n), e (K, m), λ (K,) > 0):
+    the normal equations by a Cholesky factorisation in plain loops, row by row (the same bits for a
+    row alone and in a batch). A factor that is not positive (λ too small for a singular J) gives a
+    zero step."""
+    K, m, n = J.shape
+    A = np.empty((n, n))
+    b = np.empty(n)
+    for i in range(K):
+        for r in range(n):
+            s = 0.0
+            for k in range(m):
+                s += J[i, k, r] * e[i, k]
+            b[r] = s
+            for c in range(r + 1):
+                s = 0.0
+                for k in range(m):
+                    s += J[i, k, r] * J[i, k, c]
+                A[r, c] = s
+            A[r, r] += lam[i]
+        ok = True
+        for r in range(n):  # A = L Lᵀ, L in the lower triangle of A
+            for c in range(r + 1):
+                s = A[r, c]
+                for k in range(c):
+                    s -= A[r, k] * A[c, k]
+                if r == c:
+                    if s <= 0.0:
+                        ok = False
+                        break
+                    A[r, r] = math.sqrt(s)
+                else:
+                    A[r, c] = s / A[c, c]
+            if not ok:
+                break
+        if not ok:
+            for r in range(n):
+                dq[i, r] = 0.0
+            continue
+        for r in range(n):  # L y = b
+            s = b[r]
+            for k in range(r):
+                s -= A[r, k] * b[k]
+            b[r] = s / A[r, r]
+        for r in range(n - 1, -1, -1):  # Lᵀ x = y
+            s = b[r]
+            for k in range(r + 1, n):
+                s -= A[k, r] * b[k]
+            b[r] = s / A[r, r]
+        for r in range(n):
+            dq[i, r] = b[r]
+
+
+@nb.njit(**_JIT)
+def pose_error_rows(F, T, e):
+    """``e[i] = (p_T − p_F, log(R_T R_Fᵀ))`` (world axes) for poses F, T (K, 4, 4), row by row."""
+    R = np.empty((3, 3))
+    out = np.empty(3)
+    for i in range(F.shape[0]):
+        for a in range(3):
+            e[i, a] = T[i, a, 3] - F[i, a, 3]
+            for b in range(3):
+                R[a, b] = T[i, a, 0] * F[i, b, 0] + T[i, a, 1] * F[i, b, 1] + T[i, a, 2] * F[i, b, 2]
+        rotation_log(R, out)
+        e[i, 3], e[i, 4], e[i, 5] = out[0], out[1], out[2]

@@ -1,0 +1,310 @@
+"""Canonical geometric subproblems (Paden-Kahan 1-3, Elias & Wen's 4), compiled with numba.
+
+Every inverse-kinematics closed form of :mod:`kinematics.engine.ik_closed` is a sequence of these,
+written on the zero-configuration axes ``h`` (unit vectors) and points of the product's own
+screws. ``R(k, θ) = I + sin θ [k] + (1 - cos θ) [k]²`` is the rotation by θ about the unit axis k
+(right hand), so ``R(k, θ) p = cos θ p + sin θ k × p + (1 - cos θ)(k·p) k``.
+
+| name | solves for θ (θ1, θ2) | solutions |
+|---|---|---|
+| ``sp1(p1, p2, k)`` | ``R(k, θ) p1 = p2`` | 1 |
+| ``sp2(p1, p2, k1, k2)`` | ``R(k1, θ1) p1 = R(k2, θ2) p2`` | 0, 1 or 2 |
+| ``sp3(p1, p2, k, d)`` | ``‖R(k, θ) p1 − p2‖ = d`` | 0, 1 or 2 |
+| ``sp4(h, p, k, d)`` | ``hᵀ R(k, θ) p = d`` | 0, 1 or 2 |
+| ``sp6(h, k, p, d1, d2)`` | two equations ``Σ hᵀ R(k, θ) p = d`` in (θ1, θ2) | 0 to 4 |
+
+Subproblem 5 (a point through three rotations) is not here yet: the families solved in closed
+form need only 1-4. Each returns the solutions and a **flag**: ``EXACT`` (every returned θ satisfies the equation),
+``LEAST_SQUARES`` (no exact solution: the returned θ minimises the equation's error -- a caller
+keeps it only when the error is within its tolerance, e.g. a target just outside the reach
+by rounding) or ``DEGENERATE`` (infinitely many solutions -- the data leave θ free, e.g. ``p1`` on
+the axis; one representative, θ = 0 where free, is returned).
+
+All four reduce to ``A cos θ + B sin θ = C`` (:func:`trig_solve`): with ``r = hypot(A, B)`` and
+``φ = atan2(B, A)``, ``θ = φ ± acos(C / r)``: two solutions when ``|C| < r``, one when
+``|C| = r`` (within ``TANGENT``) and a least-squares ``θ = φ`` (``C > 0``) or ``φ + π`` otherwise.
+
+Rotating ``(1, 0, 0)`` onto ``(0, 1, 0)`` about z is a quarter turn:
+
+>>> import numpy as np
+>>> theta, flag = sp1(np.array([1.0, 0, 0]), np.array([0.0, 1, 0]), np.array([0.0, 0, 1]))
+>>> round(theta, 12), flag == EXACT
+(1.570796326795, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+_JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+
+#: flags of a subproblem's answer
+EXACT, LEAST_SQUARES, DEGENERATE = 0, 1, 2
+#: |C| within this of r counts as one (tangent) solution; below this, r counts as zero
+TANGENT = 1e-12
+ZERO = 1e-12
+
+
+@nb.njit(**_JIT)
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@nb.njit(**_JIT)
+def cross(a, b):
+    out = np.empty(3)
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+    return out
+
+
+@nb.njit(**_JIT)
+def rot(k, theta):
+    """The 3x3 rotation ``R(k, θ)`` about the unit axis ``k``."""
+    c, s = math.cos(theta), math.sin(theta)
+    v = 1.0 - c
+    R = np.empty((3, 3))
+    R[0, 0] = c + k[0] * k[0] * v
+    R[0, 1] = k[0] * k[1] * v - k[2] * s
+    R[0, 2] = k[0] * k[2] * v + k[1] * s
+    R[1, 0] = k[1] * k[0] * v + k[2] * s
+    R[1, 1] = c + k[1] * k[1] * v
+    R[1, 2] = k[1] * k[2] * v - k[0] * s
+    R[2, 0] = k[2] * k[0] * v - k[1] * s
+    R[2, 1] = k[2] * k[1] * v + k[0] * s
+    R[2, 2] = c + k[2] * k[2] * v
+    return R
+
+
+@nb.njit(**_JIT)
+def rotate(k, theta, p):
+    """``R(k, θ) p`` (3,)."""
+    c, s = math.cos(theta), math.sin(theta)
+    kp = dot(k, p)
+    kx = cross(k, p)
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = c * p[i] + s * kx[i] + (1.0 - c) * kp * k[i]
+    return out
+
+
+@nb.njit(**_JIT)
+def trig_solve(A, B, C):
+    """Solutions θ (2,), their number, and the flag of ``A cos θ + B sin θ = C``."""
+    out = np.zeros(2)
+    r = math.hypot(A, B)
+    scale = max(r, abs(C), 1.0)
+    if r <= ZERO * scale:
+        if abs(C) <= ZERO * scale:
+            return out, 1, DEGENERATE
+        return out, 1, LEAST_SQUARES
+    phi = math.atan2(B, A)
+    x = C / r
+    if x >= 1.0 + TANGENT:
+        out[0] = phi
+        return out, 1, LEAST_SQUARES
+    if x <= -1.0 - TANGENT:
+        out[0] = phi + math.pi
+        return out, 1, LEAST_SQUARES
+    if abs(abs(x) - 1.0) <= TANGENT:
+        out[0] = phi if x > 0 else phi + math.pi
+        return out, 1, EXACT
+    a = math.acos(x)
+    out[0] = phi + a
+    out[1] = phi - a
+    return out, 2, EXACT
+
+
+@nb.njit(**_JIT)
+def sp1(p1, p2, k):
+    """θ with ``R(k, θ) p1 = p2`` and the flag (least squares when the lengths or the heights along
+    ``k`` of ``p1`` and ``p2`` differ; degenerate when either lies on the axis)."""
+    kp1, kp2 = dot(k, p1), dot(k, p2)
+    a = np.empty(3)
+    b = np.empty(3)
+    for i in range(3):
+        a[i] = p1[i] - kp1 * k[i]
+        b[i] = p2[i] - kp2 * k[i]
+    na, nb_ = math.sqrt(dot(a, a)), math.sqrt(dot(b, b))
+    scale = max(na, nb_, 1.0)
+    if na <= ZERO * scale or nb_ <= ZERO * scale:
+        return 0.0, DEGENERATE
+    theta = math.atan2(dot(k, cross(a, b)), dot(a, b))
+    flag = EXACT
+    if abs(na - nb_) > 1e-9 * scale or abs(kp1 - kp2) > 1e-9 * scale:
+        flag = LEAST_SQUARES
+    return theta, flag
+
+
+@nb.njit(**_JIT)
+def sp3(p1, p2, k, d):
+    """θ (2,), count and flag of ``‖R(k, θ) p1 − p2‖ = d``."""
+    kp1, kp2 = dot(k, p1), dot(k, p2)
+    a = np.empty(3)
+    b = np.empty(3)
+    for i in range(3):
+        a[i] = p1[i] - kp1 * k[i]
+        b[i] = p2[i] - kp2 * k[i]
+    # ‖R p1 − p2‖² = |a|² + |b|² − 2 (R a)·b + (kp1 − kp2)², (R a)·b = cos a·b + sin (k × a)·b
+    A = 2.0 * dot(a, b)
+    B = 2.0 * dot(cross(k, a), b)
+    C = dot(a, a) + dot(b, b) + (kp1 - kp2) ** 2 - d * d
+    return trig_solve(A, B, C)
+
+
+@nb.njit(**_JIT)
+def sp4(h, p, k, d):
+    """θ (2,), count and flag of ``hᵀ R(k, θ) p = d``."""
+    kp = dot(k, p)
+    hk = dot(h, k)
+    A = dot(h, p) - hk * kp
+    B = dot(h, cross(k, p))
+    return trig_solve(A, B, d - hk * kp)
+
+
+@nb.njit(**_JIT)
+def sp2(p1, p2, k1, k2):
+    """θ1 (2,), θ2 (2,), count and flag of ``R(k1, θ1) p1 = R(k2, θ2) p2`` (k1 not parallel to k2).
+
+    The common image ``x = α k1 + β k2 + γ k1 × k2`` keeps the heights ``k1·x = k1·p1``,
+    ``k2·x = k2·p2`` and the length ``|x| = |p1|``; γ = ±√(...) gives the two solutions, then
+    :func:`sp1` rotates each of ``p1``, ``p2`` onto x. Least squares (γ = 0) when the heights are
+    out of reach; degenerate when ``k1 ∥ k2`` or a vector lies on its axis.
+    """
+    t1 = np.zeros(2)
+    t2 = np.zeros(2)
+    c12 = dot(k1, k2)
+    s2 = 1.0 - c12 * c12
+    if s2 <= 1e-14:
+        return t1, t2, 1, DEGENERATE
+    h1, h2 = dot(k1, p1), dot(k2, p2)
+    alpha = (h1 - c12 * h2) / s2
+    beta = (h2 - c12 * h1) / s2
+    n = cross(k1, k2)
+    base = np.empty(3)
+    for i in range(3):
+        base[i] = alpha * k1[i] + beta * k2[i]
+    # the common length: the mean of |p1| and |p2| (they are equal for an exact instance)
+    length2 = 0.5 * (dot(p1, p1) + dot(p2, p2))
+    g2 = (length2 - dot(base, base)) / s2
+    flag = EXACT
+    count = 2
+    scale = max(length2, 1.0)
+    if g2 < -1e-12 * scale:
+        flag = LEAST_SQUARES
+        g2 = 0.0
+        count = 1
+    elif g2 <= 1e-12 * scale:
+        g2 = 0.0
+        count = 1
+    g = math.sqrt(g2)
+    for j in range(count):
+        x = np.empty(3)
+        sign = 1.0 if j == 0 else -1.0
+        for i in range(3):
+            x[i] = base[i] + sign * g * n[i]
+        a, f1 = sp1(p1, x, k1)
+        b, f2 = sp1(p2, x, k2)
+        t1[j] = a
+        t2[j] = b
+        if f1 == DEGENERATE or f2 == DEGENERATE:
+            flag = DEGENERATE
+    return t1, t2, count, flag
+
+
+def wrap(theta):
+    """Angles into (−π, π] (numpy, any shape)."""
+    out = np.mod(np.asarray(theta, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(out == -np.pi, np.pi, out)
+
+
+@nb.njit(**_JIT)
+def _terms(h, k, p):
+    """``hᵀ R(k, θ) p = a cos θ + b sin θ + c``: (a, b, c)."""
+    kp = dot(k, p)
+    hk = dot(h, k)
+    return dot(h, p) - hk * kp, dot(h, cross(k, p)), hk * kp
+
+
+@nb.njit(**_JIT)
+def sp6(h, k, p, d1, d2):
+    """θ1 (4,), θ2 (4,), count and flag of Elias & Wen's subproblem 6:
+
+        h[0]ᵀ R(k[0], θ1) p[0] + h[1]ᵀ R(k[1], θ2) p[1] = d1
+        h[2]ᵀ R(k[2], θ1) p[2] + h[3]ᵀ R(k[3], θ2) p[3] = d2
+
+    (``h``, ``k``, ``p``: (4, 3)). Each term is linear in ``x1 = (cos θ1, sin θ1)`` or
+    ``x2 = (cos θ2, sin θ2)``: ``A x1 + B x2 = e``. With B invertible, ``x2 = B⁻¹ (e − A x1)`` and
+    ``|x2|² = 1`` is a quadratic form in x1; ``t = tan(θ1 / 2)`` makes it a quartic (up to four
+    solutions, θ1 = π checked apart). Degenerate when B is singular (swap the roles: the caller
+    may exchange the two joints)."""
+    t1 = np.zeros(4)
+    t2 = np.zeros(4)
+    a1, b1, c1 = _terms(h[0], k[0], p[0])
+    a2, b2, c2 = _terms(h[1], k[1], p[1])
+    a3, b3, c3 = _terms(h[2], k[2], p[2])
+    a4, b4, c4 = _terms(h[3], k[3], p[3])
+    e1, e2 = d1 - c1 - c2, d2 - c3 - c4
+    det = a2 * b4 - b2 * a4
+    scale = max(abs(a2), abs(b2), abs(a4), abs(b4), 1e-300)
+    if abs(det) <= 1e-12 * scale * scale:
+        return t1, t2, 0, DEGENERATE
+    # x2 = Binv (e - A x1), Binv = [[b4, -b2], [-a4, a2]] / det; A = [[a1, b1], [a3, b3]]
+    i11, i12, i21, i22 = b4 / det, -b2 / det, -a4 / det, a2 / det
+    # x2 = u + U x1 with u = Binv e, U = -Binv A
+    u1 = i11 * e1 + i12 * e2
+    u2 = i21 * e1 + i22 * e2
+    U11 = -(i11 * a1 + i12 * a3)
+    U12 = -(i11 * b1 + i12 * b3)
+    U21 = -(i21 * a1 + i22 * a3)
+    U22 = -(i21 * b1 + i22 * b3)
+    # |u + U x1|² − 1 = m11 c² + 2 m12 c s + m22 s² + 2 n1 c + 2 n2 s + w
+    m11 = U11 * U11 + U21 * U21
+    m12 = U11 * U12 + U21 * U22
+    m22 = U12 * U12 + U22 * U22
+    n1 = u1 * U11 + u2 * U21
+    n2 = u1 * U12 + u2 * U22
+    w = u1 * u1 + u2 * u2 - 1.0
+    # c = (1 − t²)/(1 + t²), s = 2t/(1 + t²), times (1 + t²)²
+    coeffs = np.zeros(5)
+    coeffs[0] = m11 - 2.0 * n1 + w                      # t⁴
+    coeffs[1] = -4.0 * m12 + 4.0 * n2                   # t³
+    coeffs[2] = -2.0 * m11 + 4.0 * m22 + 2.0 * w        # t²
+    coeffs[3] = 4.0 * m12 + 4.0 * n2                    # t
+    coeffs[4] = m11 + 2.0 * n1 + w                      # 1
+    count = 0
+    cands = np.zeros(5)
+    nc = 0
+    big = max(abs(coeffs[0]), abs(coeffs[1]), abs(coeffs[2]), abs(coeffs[3]), abs(coeffs[4]), 1e-300)
+    if abs(coeffs[0]) <= 1e-14 * big:  # a root at t = ∞: θ1 = π
+        cands[nc] = math.pi
+        nc += 1
+    first = 0
+    while first < 4 and abs(coeffs[first]) <= 1e-14 * big:
+        first += 1
+    if first < 4:
+        roots = np.roots(coeffs[first:].astype(np.complex128))
+        for r in roots:
+            if abs(r.imag) <= 1e-7 * max(1.0, abs(r.real)):
+                cands[nc] = 2.0 * math.atan(r.real)
+                nc += 1
+    flag = EXACT
+    for i in range(nc):
+        th = cands[i]
+        c, s = math.cos(th), math.sin(th)
+        x1 = u1 + U11 * c + U12 * s
+        x2 = u2 + U21 * c + U22 * s
+        dup = False
+        for j in range(count):
+            if abs(math.atan2(math.sin(th - t1[j]), math.cos(th - t1[j]))) < 1e-9:
+                dup = True
+        if dup or count >= 4:
+            continue
+        t1[count] = th
+        t2[count] = math.atan2(x2, x1)
+        count += 1
+    return t1, t2, count, flag
