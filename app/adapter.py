@@ -25,6 +25,7 @@ from typing import Annotated, Any, Callable, Literal
 
 import numpy as np
 from fastapi import Query, Request
+from pydantic import StringConstraints
 
 from kinematics.usecases import Budget
 
@@ -188,4 +189,7 @@ NormalizeQuery = Annotated[bool, Query(description=".npy bodies: scale quaternio
 VerifyQuery = Annotated[bool, Query(description=".npy bodies: compare with Pinocchio")]
 LinksQuery = Annotated[list[str] | None, Query(description=".npy bodies: link names (repeat or comma-separate), or `all`")]
 LinkQuery = Annotated[str | None, Query(description=".npy bodies: the link (default: the first leaf link)")]
+#: one ``locked=joint:value`` query parameter (a number after the colon), repeated for several joints
+LockedItem = Annotated[str, StringConstraints(pattern=r"^[^:]+:\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*$")]
+LockedQuery = Annotated[list[LockedItem] | None, Query(description="joints held at values: joint:value, repeated")]
 LimitsQuery = Annotated[Literal["report", "refuse"], Query(description=".npy bodies: out-of-limit policy")]

@@ -21,8 +21,8 @@ from fastapi import APIRouter, Depends, Query, Request
 from kinematics import usecases
 from kinematics.io.poses import pose_count
 
-from ..adapter import (FloatingBaseQuery, LinkQuery, NormalizeQuery, PointQuery, budget, error_responses, execute,
-                       names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
+from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
+                       execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -54,7 +54,7 @@ async def read_ik_request(
     solutions: Annotated[Literal["one", "all"], Query(description=".npy bodies: one or all")] = "one",
     method: Annotated[Literal["auto", "analytic", "numeric"], Query(description=".npy bodies: the method")] = "auto",
     limits: Annotated[Literal["respect", "ignore"], Query(description=".npy bodies: with solutions all")] = "respect",
-    locked: Annotated[list[str] | None, Query(description=".npy bodies: joint:value, repeated")] = None,
+    locked: LockedQuery = None,
 ) -> IKRequest:
     def npy(body: bytes) -> dict:
         return {"target": decode_targets(body), "link": link, "mode": mode, "max_iterations": max_iterations,

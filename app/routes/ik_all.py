@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Query, Request
+from fastapi import APIRouter, Depends, Request
 
 from kinematics import usecases
 
-from ..adapter import LinkQuery, budget, error_responses, execute, read_request, request_body_doc
+from ..adapter import LinkQuery, LockedQuery, budget, error_responses, execute, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
 from ..errors import ProblemError
 from ..responses import FastJSONResponse
@@ -22,7 +22,7 @@ router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)]
 @router.get("/models/{model_id}/ik/family", response_model=IKFamilyResponse,
             responses=error_responses({422: "invalid locked joint"}, statuses=(404, 422)))
 def ik_family(model_id: ModelId, registry: RegistryDep, link: LinkQuery = None,
-              locked: Annotated[list[str] | None, Query(description="joint:value, repeated")] = None):
+              locked: LockedQuery = None):
     """The structure of the chain to `link` with `locked` joints held: which axes meet or are
     parallel, the family's name, whether it has a closed form and how many solutions at most."""
     rec = registry.get(model_id)

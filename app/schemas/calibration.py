@@ -6,7 +6,7 @@ with the device frame and the tool (estimate them, or hold them), not poses of t
 
 from __future__ import annotations
 
-from typing import Literal, Union
+from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -30,9 +30,11 @@ class PoseMeasurement(BaseModel):
 
 class CalibrationRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
-    link: str = Field(description="the link the marker or tool is fixed to")
-    measurements: Union[list[PositionMeasurement], list[PoseMeasurement]] = Field(
-        min_length=1, description="what the device measured: every entry a position, or every entry a pose")
+    link: Union[str, None] = Field(default=None, description="the link the marker or tool is fixed to (default: the "
+                                                             "model's first leaf link, as on every operation)")
+    measurements: Union[Annotated[list[PositionMeasurement], Field(min_length=1)],
+                        Annotated[list[PoseMeasurement], Field(min_length=1)]] = Field(
+        description="what the device measured: every entry a position, or every entry a pose")
     point: Union[Point, None] = Field(default=None, description="a guess of the marker point on the link, metres "
                                       "(positions; default the link origin: the fit starts from the best point anyway)")
     parameters: Literal["full", "joint_offsets"] = Field(
@@ -101,8 +103,10 @@ class CalibrationResponse(BaseModel):
 
 class CalibrationPosesRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
-    link: str
-    n: Integer = Field(ge=1, le=1000, description="how many configurations")
+    link: Union[str, None] = Field(default=None, description="the link the marker will be on (default: the model's "
+                                                             "first leaf link)")
+    n: Integer = Field(ge=1, le=200, description="how many configurations (up to 200 over HTTP: the selection's time "
+                                                 "grows with n; the library takes up to 1000)")
     measure: Literal["position", "pose"] = "position"
     random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1)
     point: Union[Point, None] = Field(default=None, description="where the marker will be on the link (default "

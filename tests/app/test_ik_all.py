@@ -87,7 +87,7 @@ def test_bad_locked_joints_are_422_naming_them(api_client, locked, joint):
     r = api_client.get(f"/models/panda/ik/family?link=panda_link8&locked={joint}:{list(locked.values())[0]}")
     assert r.status_code == 422 and r.json()["joint"] == joint
     r = api_client.get("/models/panda/ik/family?locked=nonsense")
-    assert r.status_code == 422 and r.json()["field"] == "locked"
+    assert r.status_code == 422 and r.json()["field"].startswith("locked")  # the schema's joint:value pattern
 
 
 def test_redundant_chain_all_is_422(api_client):

@@ -100,6 +100,12 @@ class Calibration:
         return self.model.urdf
 
 
+#: the largest correction of one parameter a calibration answers (metres or radians): more is a fit
+#: that diverged on measurements the model cannot explain, not a robot as built
+MAX_CORRECTION = 1.0
+#: function evaluations of one least-squares solve (a converging fit takes about ten)
+MAX_EVALUATIONS = 200
+
 def kabsch(P: np.ndarray, M: np.ndarray) -> np.ndarray:
     """The rigid ``T`` (4, 4) minimising ``sum |M_i - T P_i|^2`` over points P, M (N, 3) (Umeyama, no scale).
 
@@ -241,6 +247,9 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     order = rng.permutation(N)
     held = np.sort(order[:n_hold])
     fit = np.sort(order[n_hold:])
+    if fit.size < 3:
+        raise CalibrationError(f"holdout {holdout} keeps {fit.size} of {N} measurements for the fit; at least 3 are "
+                               "needed (and more than the parameters they should determine)", field="holdout")
     point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise CalibrationError("point must be 3 finite numbers (metres, in the link frame)", field="point")
@@ -313,6 +322,10 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, z, rotation_weight, "linear", 1.0)
     nfev += n
     x = _full(x0, sel, z)
+    if not np.all(np.isfinite(x)) or np.max(np.abs(x - x0)) > MAX_CORRECTION:
+        raise CalibrationError(f"the fit diverged (a parameter moved by more than {MAX_CORRECTION:g} m or rad): the "
+                               "measurements do not fit this model and link; with base 'fixed' they must be given "
+                               "in the root frame, and with a point guess the marker must be on that link")
     r, J = residual_and_jacobian(em, Q[fit][inliers], x, meas_fit[inliers], rotation_weight)
     r = r.reshape(-1)
     Js = J.reshape(-1, len(x))[:, sel]
@@ -391,7 +404,7 @@ def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
     method = "lm" if loss == "linear" else "trf"
     try:
         res = least_squares(fun, z0, jac=jac, method=method, loss=loss, f_scale=f_scale, x_scale="jac",
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200 if method == "trf" else None)
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=MAX_EVALUATIONS)
     except ValueError as exc:  # scipy refuses shapes it cannot solve
         raise KinematicsError(f"the calibration fit failed: {exc}") from None
     return res.x, int(res.nfev), str(res.message)
