@@ -15,15 +15,14 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 from .. import usecases
 from ..usecases import Query
 from ..spatial.transforms import pose_components
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _fail, _model_options, load_model
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
 
 
 def register(sub) -> None:
@@ -69,25 +68,12 @@ def register(sub) -> None:
     q.set_defaults(func=run_poses)
 
 
-def _point(text: str | None):
-    if text is None:
-        return None
-    try:
-        p = [float(v) for v in text.split(",")]
-    except ValueError:
-        p = []
-    if len(p) != 3:
-        raise ValueError(f"--point: {text!r}; give three comma-separated numbers x,y,z")
-    return p
-
-
 def run_calibrate(args) -> int:
+    model = model_or_exit_code(args, "calibrate")
+    if isinstance(model, int):
+        return model
     try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("calibrate", str(exc), EXIT_MODEL)
-    try:
-        point = _point(args.point)
+        point = parse_point(args.point)
     except ValueError as exc:
         return _fail("calibrate", str(exc), EXIT_USAGE)
     for path, ext in ((args.output, ".urdf"), (args.plot, ".png")):
@@ -191,26 +177,16 @@ def plot(cal, path: str, title: str = "") -> None:
 
 
 def _write(path: str, data: bytes) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".calibrate.", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, ".calibrate.") as fh:
+        fh.write(data)
 
 
 def run_poses(args) -> int:
+    model = model_or_exit_code(args, "calibration-poses")
+    if isinstance(model, int):
+        return model
     try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("calibration-poses", str(exc), EXIT_MODEL)
-    try:
-        point = _point(args.point)
+        point = parse_point(args.point)
     except ValueError as exc:
         return _fail("calibration-poses", str(exc), EXIT_USAGE)
     choice = usecases.calibration_poses(Query(model, link=args.link, point=point), args.n, measure=args.measure,
