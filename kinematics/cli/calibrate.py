@@ -68,14 +68,24 @@ def register(sub) -> None:
     q.set_defaults(func=run_poses)
 
 
-def run_calibrate(args) -> int:
-    model = model_or_exit_code(args, "calibrate")
+def _query(args, command: str) -> Query | int:
+    """The query of ``--link`` and ``--point`` on the model the options name, or the exit code of a
+    model or a point that cannot be read, after saying why."""
+    model = model_or_exit_code(args, command)
     if isinstance(model, int):
         return model
     try:
         point = parse_point(args.point)
     except ValueError as exc:
-        return _fail("calibrate", str(exc), EXIT_USAGE)
+        return _fail(command, str(exc), EXIT_USAGE)
+    return Query(model, link=args.link, point=point)
+
+
+def run_calibrate(args) -> int:
+    query = _query(args, "calibrate")
+    if isinstance(query, int):
+        return query
+    model = query.model
     for path, ext in ((args.output, ".urdf"), (args.plot, ".png")):
         if path is not None and os.path.splitext(path)[1].lower() != ext:
             return _fail("calibrate", f"{path}: give a file ending in {ext}", EXIT_USAGE)
@@ -83,7 +93,7 @@ def run_calibrate(args) -> int:
         text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
     except OSError as exc:
         return _fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
-    cal = usecases.calibrate(Query(model, link=args.link, point=point), csv=text, parameters=args.parameters,
+    cal = usecases.calibrate(query, csv=text, parameters=args.parameters,
                              base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
                              random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)
     print(report(cal, model.name))
@@ -182,14 +192,11 @@ def _write(path: str, data: bytes) -> None:
 
 
 def run_poses(args) -> int:
-    model = model_or_exit_code(args, "calibration-poses")
-    if isinstance(model, int):
-        return model
-    try:
-        point = parse_point(args.point)
-    except ValueError as exc:
-        return _fail("calibration-poses", str(exc), EXIT_USAGE)
-    choice = usecases.calibration_poses(Query(model, link=args.link, point=point), args.n, measure=args.measure,
+    query = _query(args, "calibration-poses")
+    if isinstance(query, int):
+        return query
+    model = query.model
+    choice = usecases.calibration_poses(query, args.n, measure=args.measure,
                                         random_seed=args.seed)
     header = ",".join(model.joint_names)
     rows = "\n".join(",".join(repr(float(v)) for v in q) for q in choice.q)

@@ -143,7 +143,7 @@ class DHRow:
         return DEFAULT_REVOLUTE_LIMITS if self.type == "revolute" else DEFAULT_PRISMATIC_LIMITS
 
 
-class JointRows:
+class TableRows:
     """What a table of one row per moving joint (``rows``, each with a ``name``) tells from its rows:
     the numeric :class:`DHTable` and the symbolic tables of :mod:`kinematics.algorithms.symbolic`."""
 
@@ -160,7 +160,7 @@ class JointRows:
 
 
 @dataclass(frozen=True, eq=False)
-class DHTable(JointRows):
+class DHTable(TableRows):
     """A validated DH table (immutable). Build one with :func:`table_from_dict`.
 
     Attributes:

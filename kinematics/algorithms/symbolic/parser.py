@@ -237,7 +237,7 @@ class SymbolicDHRow:
 
 
 @dataclass(frozen=True, eq=False)
-class SymbolicDHTable(dh.JointRows):
+class SymbolicDHTable(dh.TableRows):
     """A DH table with symbolic entries (:func:`symbolic_table_from_dict`); base and tool are numeric."""
 
     name: str
