@@ -10,7 +10,8 @@ hand) and validated when built: the limits policy, the point or tool. Each use c
 :func:`~kinematics.usecases.ik.ik` ``(query, target)``, ... and does the shared steps through
 the query's methods, written once here: the joint values (:meth:`Query.joints`), the link(s)
 (:meth:`Query.link_names`, :meth:`Query.frame_link`), the size checks of verification and
-of the answer (:meth:`Query.check_sizes`) and the base poses (:meth:`Query.base_poses`).
+of the answer (:meth:`Query.check_sizes`), the base poses (:meth:`Query.base_poses`) and, for
+IK, the target poses and seeds (:meth:`Query.targets`, :meth:`Query.seeds`).
 
 For convenience every use case also takes a model and the query's fields as keywords
 (``fk(model, q, links=["tool0"])`` is ``fk(Query(model, links=["tool0"]), q)``): :meth:`Query.of`.
