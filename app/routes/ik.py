@@ -20,6 +20,7 @@ from fastapi import APIRouter, Depends, Query, Request
 
 from kinematics import usecases
 from kinematics.io.poses import pose_count
+from kinematics.usecases.ik_all import parse_locked as read_locked
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
                        execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
@@ -94,19 +95,10 @@ async def inverse_kinematics(model_id: ModelId, req: Annotated[IKRequest, Depend
 
 def parse_locked(values: list[str] | None) -> dict[str, float] | None:
     """``locked=joint:value`` query parameters as a map (a malformed one is a 422 naming the field)."""
-    if not values:
-        return None
-    out: dict[str, float] = {}
-    for item in values:
-        name, sep, value = item.rpartition(":")
-        try:
-            if not sep or not name:
-                raise ValueError
-            out[name] = float(value)
-        except ValueError:
-            raise ProblemError(422, f"locked: {item!r} is not joint:value", slug="validation-error",
-                               field="locked") from None
-    return out
+    try:
+        return read_locked(values) or None
+    except ValueError as exc:
+        raise ProblemError(422, f"locked: {exc}", slug="validation-error", field="locked") from None
 
 
 def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: Settings):

@@ -15,15 +15,14 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 from .. import usecases
 from ..usecases import Query
 from ..spatial.transforms import pose_components
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _fail, _model_options, load_model
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
 
 
 def register(sub) -> None:
@@ -69,27 +68,24 @@ def register(sub) -> None:
     q.set_defaults(func=run_poses)
 
 
-def _point(text: str | None):
-    if text is None:
-        return None
+def _query(args, command: str) -> Query | int:
+    """The query of ``--link`` and ``--point`` on the model the options name, or the exit code of a
+    model or a point that cannot be read, after saying why."""
+    model = model_or_exit_code(args, command)
+    if isinstance(model, int):
+        return model
     try:
-        p = [float(v) for v in text.split(",")]
-    except ValueError:
-        p = []
-    if len(p) != 3:
-        raise ValueError(f"--point: {text!r}; give three comma-separated numbers x,y,z")
-    return p
+        point = parse_point(args.point)
+    except ValueError as exc:
+        return _fail(command, str(exc), EXIT_USAGE)
+    return Query(model, link=args.link, point=point)
 
 
 def run_calibrate(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("calibrate", str(exc), EXIT_MODEL)
-    try:
-        point = _point(args.point)
-    except ValueError as exc:
-        return _fail("calibrate", str(exc), EXIT_USAGE)
+    query = _query(args, "calibrate")
+    if isinstance(query, int):
+        return query
+    model = query.model
     for path, ext in ((args.output, ".urdf"), (args.plot, ".png")):
         if path is not None and os.path.splitext(path)[1].lower() != ext:
             return _fail("calibrate", f"{path}: give a file ending in {ext}", EXIT_USAGE)
@@ -97,7 +93,7 @@ def run_calibrate(args) -> int:
         text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
     except OSError as exc:
         return _fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
-    cal = usecases.calibrate(Query(model, link=args.link, point=point), csv=text, parameters=args.parameters,
+    cal = usecases.calibrate(query, csv=text, parameters=args.parameters,
                              base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
                              random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)
     print(report(cal, model.name))
@@ -191,29 +187,16 @@ def plot(cal, path: str, title: str = "") -> None:
 
 
 def _write(path: str, data: bytes) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".calibrate.", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, ".calibrate.") as fh:
+        fh.write(data)
 
 
 def run_poses(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("calibration-poses", str(exc), EXIT_MODEL)
-    try:
-        point = _point(args.point)
-    except ValueError as exc:
-        return _fail("calibration-poses", str(exc), EXIT_USAGE)
-    choice = usecases.calibration_poses(Query(model, link=args.link, point=point), args.n, measure=args.measure,
+    query = _query(args, "calibration-poses")
+    if isinstance(query, int):
+        return query
+    model = query.model
+    choice = usecases.calibration_poses(query, args.n, measure=args.measure,
                                         random_seed=args.seed)
     header = ",".join(model.joint_names)
     rows = "\n".join(",".join(repr(float(v)) for v in q) for q in choice.q)

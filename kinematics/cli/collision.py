@@ -24,8 +24,8 @@ from ..errors import KinematicsError
 from ..io.trajectory import open_joint_rows
 from ..usecases import collision as _collision
 from ..usecases import collision_matrix as _matrix
-from . import EXIT_MODEL, EXIT_OK, EXIT_USAGE
-from .pipeline import ModelLoadError, _fail, _model_options, load_model
+from . import EXIT_OK, EXIT_USAGE
+from .pipeline import _fail, _model_options, model_or_exit_code
 from .progress import progress
 
 
@@ -82,10 +82,9 @@ def _matrix_with_bar(model, args):
 
 
 def run_collision_matrix(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("collision-matrix", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "collision-matrix")
+    if isinstance(model, int):
+        return model
     try:
         matrix = _matrix_with_bar(model, args)
     except KinematicsError as exc:
@@ -107,10 +106,9 @@ def run_collision_matrix(args) -> int:
 
 
 def run_collision(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("collision", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "collision")
+    if isinstance(model, int):
+        return model
     try:
         matrix = _matrix_with_bar(model, args)
         checked = matrix.enabled()

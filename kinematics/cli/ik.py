@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import api
 from ..usecases import Query
+from ..usecases.ik_all import parse_locked as read_locked
 from ..algorithms.ik import (
     DEFAULT_MAX_ITERATIONS,
     DEFAULT_POSITION_TOLERANCE,
@@ -141,16 +142,10 @@ def run_ik(args) -> int:
 
 def parse_locked(items) -> dict[str, float] | str:
     """``--locked JOINT:VALUE`` options as a map, or the message of a malformed one."""
-    out: dict[str, float] = {}
-    for item in items or ():
-        name, sep, value = item.rpartition(":")
-        try:
-            if not sep or not name:
-                raise ValueError
-            out[name] = float(value)
-        except ValueError:
-            return f"--locked: {item!r} is not JOINT:VALUE"
-    return out
+    try:
+        return read_locked(items)
+    except ValueError as exc:
+        return f"--locked: {exc}"
 
 
 def _solve_all(args, model, link: str, seed, locked) -> int:

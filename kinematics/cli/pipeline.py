@@ -9,9 +9,11 @@ configurations, so memory stays bounded whatever the length of the file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
+import tempfile
 import time
 
 
@@ -210,6 +212,22 @@ def model_or_exit_code(args, command: str) -> RobotModel | int:
         return load_model(args)
     except ModelLoadError as exc:
         return _fail(command, str(exc), EXIT_MODEL)
+
+
+@contextlib.contextmanager
+def atomic_file(path: str, prefix: str):
+    """A binary file whose content replaces ``path`` (mode 0644) only when the ``with`` block ends
+    normally: until then a temporary file ``<prefix>*`` beside it, removed on an exception."""
+    fd, tmp = tempfile.mkstemp(prefix=prefix, dir=os.path.dirname(os.path.abspath(path)))
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            yield fh
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def parse_point(text: str | None) -> list[float] | None:

@@ -14,7 +14,6 @@ import argparse
 import math
 import os
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -24,7 +23,7 @@ from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CE
 from ..errors import MissingExtraError
 from ..usecases import Query
 from . import EXIT_OK, EXIT_USAGE
-from .pipeline import _fail, _model_options, model_or_exit_code, parse_point
+from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
 from .progress import progress
 
 OUTPUT_HELP = """output (-o, by extension):
@@ -127,30 +126,21 @@ def summary(name: str, ws, elapsed: float) -> str:
 
 def write_cloud(ws, path: str) -> None:
     """The cloud as ``.npz`` (with the dexterity map and summary) or ``.csv``, written atomically."""
-    folder = os.path.dirname(os.path.abspath(path))
     suffix = os.path.splitext(path)[1].lower()
-    fd, tmp = tempfile.mkstemp(prefix=".workspace.", suffix=suffix, dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            if suffix == ".npz":
-                arrays = dict(points=ws.points, manipulability=ws.manipulability, voxel_centers=ws.voxel_centers,
-                              voxel_index=ws.voxel_index, voxel_manipulability=ws.voxel_manipulability,
-                              bounding_box=ws.bounding_box, reach=np.float64(ws.reach), volume=np.float64(ws.volume),
-                              convergence=np.array(ws.convergence, dtype=float).reshape(-1, 2),
-                              voxel=np.float64(ws.voxel), cell=ws.cell, axes=ws.axes, origin=ws.origin,
-                              dimension=np.int64(ws.dimension))
-                if ws.planar:
-                    arrays["area"] = np.float64(ws.area)
-                np.savez(fh, **arrays)
-            else:
-                fh.write(b"x,y,z,manipulability\n")
-                np.savetxt(fh, np.column_stack([ws.points, ws.manipulability]), delimiter=",", fmt="%.17g")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, ".workspace.") as fh:
+        if suffix == ".npz":
+            arrays = dict(points=ws.points, manipulability=ws.manipulability, voxel_centers=ws.voxel_centers,
+                          voxel_index=ws.voxel_index, voxel_manipulability=ws.voxel_manipulability,
+                          bounding_box=ws.bounding_box, reach=np.float64(ws.reach), volume=np.float64(ws.volume),
+                          convergence=np.array(ws.convergence, dtype=float).reshape(-1, 2),
+                          voxel=np.float64(ws.voxel), cell=ws.cell, axes=ws.axes, origin=ws.origin,
+                          dimension=np.int64(ws.dimension))
+            if ws.planar:
+                arrays["area"] = np.float64(ws.area)
+            np.savez(fh, **arrays)
+        else:
+            fh.write(b"x,y,z,manipulability\n")
+            np.savetxt(fh, np.column_stack([ws.points, ws.manipulability]), delimiter=",", fmt="%.17g")
 
 
 def _slice(ws, axis: int) -> tuple[np.ndarray, list[float]] | None:

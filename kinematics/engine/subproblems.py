@@ -119,16 +119,24 @@ def trig_solve(A, B, C):
     return out, 2, EXACT
 
 
-@nb.njit(**_JIT)
-def sp1(p1, p2, k):
-    """θ with ``R(k, θ) p1 = p2`` and the flag (least squares when the lengths or the heights along
-    ``k`` of ``p1`` and ``p2`` differ; degenerate when either lies on the axis)."""
+@nb.njit(inline="always", **_JIT)
+def _across(p1, p2, k):
+    """``(k·p1, k·p2, a, b)``: the heights of ``p1``, ``p2`` along the unit axis ``k`` and their parts
+    ``a``, ``b`` (3,) across it (what a rotation about ``k`` turns)."""
     kp1, kp2 = dot(k, p1), dot(k, p2)
     a = np.empty(3)
     b = np.empty(3)
     for i in range(3):
         a[i] = p1[i] - kp1 * k[i]
         b[i] = p2[i] - kp2 * k[i]
+    return kp1, kp2, a, b
+
+
+@nb.njit(**_JIT)
+def sp1(p1, p2, k):
+    """θ with ``R(k, θ) p1 = p2`` and the flag (least squares when the lengths or the heights along
+    ``k`` of ``p1`` and ``p2`` differ; degenerate when either lies on the axis)."""
+    kp1, kp2, a, b = _across(p1, p2, k)
     na, nb_ = math.sqrt(dot(a, a)), math.sqrt(dot(b, b))
     scale = max(na, nb_, 1.0)
     if na <= ZERO * scale or nb_ <= ZERO * scale:
@@ -143,12 +151,7 @@ def sp1(p1, p2, k):
 @nb.njit(**_JIT)
 def sp3(p1, p2, k, d):
     """θ (2,), count and flag of ``‖R(k, θ) p1 − p2‖ = d``."""
-    kp1, kp2 = dot(k, p1), dot(k, p2)
-    a = np.empty(3)
-    b = np.empty(3)
-    for i in range(3):
-        a[i] = p1[i] - kp1 * k[i]
-        b[i] = p2[i] - kp2 * k[i]
+    kp1, kp2, a, b = _across(p1, p2, k)
     # ‖R p1 − p2‖² = |a|² + |b|² − 2 (R a)·b + (kp1 − kp2)², (R a)·b = cos a·b + sin (k × a)·b
     A = 2.0 * dot(a, b)
     B = 2.0 * dot(cross(k, a), b)

@@ -118,7 +118,12 @@ def _write(dest: Path, rel: PurePosixPath, data: bytes, written: set) -> None:
         raise ArchiveError(f"archive member {str(rel)!r} cannot be extracted: {exc.strerror or exc}") from None
 
 
-def _extract_zip(data: bytes, dest: Path, limits: ArchiveLimits) -> list[str]:
+_ZIP_READ_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, ValueError, NotImplementedError, RuntimeError)
+
+
+def _zip_files(data: bytes, limits: ArchiveLimits, wanted) -> tuple[zipfile.ZipFile, list]:
+    """The open zip and its members ``(info, rel)`` that are files whose path ``wanted(rel)``
+    accepts, after the checks every member gets (count, names, links, devices)."""
     try:
         zf = zipfile.ZipFile(io.BytesIO(data))
         infos = zf.infolist()
@@ -126,8 +131,7 @@ def _extract_zip(data: bytes, dest: Path, limits: ArchiveLimits) -> list[str]:
         raise ArchiveError(f"the body is not a readable zip archive: {exc}") from None
     if len(infos) > limits.max_members:
         raise ArchiveTooLargeError(f"the archive has {len(infos)} members; the limit is {limits.max_members}")
-    plan = []
-    total = 0
+    files = []
     for info in infos:
         rel = member_path(info.filename)
         kind = stat.S_IFMT((info.external_attr >> 16) & 0xFFFF)  # unix file type (0: none recorded)
@@ -135,34 +139,27 @@ def _extract_zip(data: bytes, dest: Path, limits: ArchiveLimits) -> list[str]:
             raise ArchiveError(f"archive member {info.filename!r} is a symbolic link; links are refused")
         if kind not in (0, stat.S_IFREG, stat.S_IFDIR):
             raise ArchiveError(f"archive member {info.filename!r} is not a regular file")
-        if rel is None or info.is_dir() or not _wanted(rel):
-            continue
-        if info.flag_bits & 0x1:
-            raise ArchiveError(f"archive member {info.filename!r} is encrypted")
-        total += info.file_size
-        if total > limits.max_bytes:
-            raise ArchiveTooLargeError(
-                f"the archive's description files uncompress to more than {limits.max_bytes} bytes "
-                f"(at member {info.filename!r}); nothing was extracted")
-        plan.append((info, rel))
-    written: set = set()
-    for info, rel in plan:
-        try:
-            with zf.open(info) as fh:
-                content = fh.read(info.file_size + 1)
-        except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, NotImplementedError, RuntimeError) as exc:
-            raise ArchiveError(f"archive member {info.filename!r} cannot be read: {exc}") from None
-        if len(content) > info.file_size:
-            raise ArchiveTooLargeError(f"archive member {info.filename!r} is larger than its header says")
-        _write(dest, rel, content, written)
-    return sorted(str(r) for r in written)
+        if rel is not None and not info.is_dir() and wanted(rel):
+            files.append((info, rel))
+    return zf, files
 
 
-def _extract_tar(data: bytes, dest: Path, limits: ArchiveLimits, compressed: bool) -> list[str]:
+def _zip_read(zf: zipfile.ZipFile, info: zipfile.ZipInfo, n: int) -> bytes:
+    """At most ``n`` bytes of the member ``info`` (an unreadable one: :class:`ArchiveError` naming it)."""
+    try:
+        with zf.open(info) as fh:
+            return fh.read(n)
+    except _ZIP_READ_ERRORS as exc:
+        raise ArchiveError(f"archive member {info.filename!r} cannot be read: {exc}") from None
+
+
+def _each_tar_file(data: bytes, limits: ArchiveLimits, compressed: bool, wanted, visit) -> None:
+    """``visit(member, rel, read)`` for each member of a tar stream that is a file whose path
+    ``wanted(rel)`` accepts (``read(n)``: at most n bytes of it), in stream order, after the checks
+    every member gets (count, names, links, devices, the decompressed-stream cap)."""
     raw = io.BytesIO(data)
     stream = _CappedReader(gzip.GzipFile(fileobj=raw, mode="rb") if compressed else raw, limits.max_stream_bytes)
-    written: set = set()
-    total = members = 0
+    members = 0
     try:
         with tarfile.open(fileobj=io.BufferedReader(stream, 1 * MIB), mode="r|") as tf:
             for member in tf:
@@ -177,18 +174,49 @@ def _extract_tar(data: bytes, dest: Path, limits: ArchiveLimits, compressed: boo
                     continue
                 if not member.isfile():
                     raise ArchiveError(f"archive member {member.name!r} is not a regular file (a device or FIFO)")
-                if rel is None or not _wanted(rel):
+                if rel is None or not wanted(rel):
                     continue
-                total += member.size
-                if total > limits.max_bytes:
-                    raise ArchiveTooLargeError(f"the archive's description files are more than {limits.max_bytes} bytes "
-                                               f"(at member {member.name!r})")
                 fh = tf.extractfile(member)
-                _write(dest, rel, fh.read(member.size) if fh else b"", written)
+                visit(member, rel, fh.read if fh else (lambda n: b""))
     except (tarfile.TarError, gzip.BadGzipFile, zlib.error, EOFError, OSError) as exc:
         if isinstance(exc, ArchiveError):
             raise
         raise ArchiveError(f"the body is not a readable {'gzip-compressed ' if compressed else ''}tar archive: {exc}") from None
+
+
+def _extract_zip(data: bytes, dest: Path, limits: ArchiveLimits) -> list[str]:
+    zf, files = _zip_files(data, limits, _wanted)
+    total = 0
+    for info, _ in files:
+        if info.flag_bits & 0x1:
+            raise ArchiveError(f"archive member {info.filename!r} is encrypted")
+        total += info.file_size
+        if total > limits.max_bytes:
+            raise ArchiveTooLargeError(
+                f"the archive's description files uncompress to more than {limits.max_bytes} bytes "
+                f"(at member {info.filename!r}); nothing was extracted")
+    written: set = set()
+    for info, rel in files:
+        content = _zip_read(zf, info, info.file_size + 1)
+        if len(content) > info.file_size:
+            raise ArchiveTooLargeError(f"archive member {info.filename!r} is larger than its header says")
+        _write(dest, rel, content, written)
+    return sorted(str(r) for r in written)
+
+
+def _extract_tar(data: bytes, dest: Path, limits: ArchiveLimits, compressed: bool) -> list[str]:
+    written: set = set()
+    total = 0
+
+    def visit(member, rel, read) -> None:
+        nonlocal total
+        total += member.size
+        if total > limits.max_bytes:
+            raise ArchiveTooLargeError(f"the archive's description files are more than {limits.max_bytes} bytes "
+                                       f"(at member {member.name!r})")
+        _write(dest, rel, read(member.size), written)
+
+    _each_tar_file(data, limits, compressed, _wanted, visit)
     return sorted(str(r) for r in written)
 
 
@@ -217,6 +245,10 @@ class MeshLimits:
 
 
 DEFAULT_MESH_LIMITS = MeshLimits()
+
+
+def _is_mesh(path: PurePosixPath) -> bool:
+    return path.name.lower().endswith(MESH_SUFFIXES)
 
 
 def read_meshes(data: bytes, *, limits: ArchiveLimits = DEFAULT_ARCHIVE_LIMITS,
@@ -250,52 +282,12 @@ def read_meshes(data: bytes, *, limits: ArchiveLimits = DEFAULT_ARCHIVE_LIMITS,
         out[name] = content
 
     if kind == "zip":
-        try:
-            zf = zipfile.ZipFile(io.BytesIO(data))
-            infos = zf.infolist()
-        except (zipfile.BadZipFile, zipfile.LargeZipFile, ValueError, EOFError) as exc:
-            raise ArchiveError(f"the body is not a readable zip archive: {exc}") from None
-        if len(infos) > limits.max_members:
-            raise ArchiveTooLargeError(f"the archive has {len(infos)} members; the limit is {limits.max_members}")
-        for info in infos:
-            rel = member_path(info.filename)
-            ftype = stat.S_IFMT((info.external_attr >> 16) & 0xFFFF)
-            if ftype == stat.S_IFLNK:
-                raise ArchiveError(f"archive member {info.filename!r} is a symbolic link; links are refused")
-            if ftype not in (0, stat.S_IFREG, stat.S_IFDIR):
-                raise ArchiveError(f"archive member {info.filename!r} is not a regular file")
-            if rel is None or info.is_dir() or not rel.name.lower().endswith(MESH_SUFFIXES) or info.flag_bits & 0x1:
-                continue
-            try:
-                with zf.open(info) as fh:
-                    take(rel, info.file_size, fh.read)
-            except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, NotImplementedError, RuntimeError) as exc:
-                raise ArchiveError(f"archive member {info.filename!r} cannot be read: {exc}") from None
+        zf, files = _zip_files(data, limits, _is_mesh)
+        for info, rel in files:
+            if not info.flag_bits & 0x1:  # an encrypted mesh is passed over
+                take(rel, info.file_size, lambda n, info=info: _zip_read(zf, info, n))
         return out, warnings
     if kind not in ("gzip", "tar"):
         raise ArchiveError("the body is not a zip, gzip or tar archive")
-    raw = io.BytesIO(data)
-    stream = _CappedReader(gzip.GzipFile(fileobj=raw, mode="rb") if kind == "gzip" else raw, limits.max_stream_bytes)
-    members = 0
-    try:
-        with tarfile.open(fileobj=io.BufferedReader(stream, 1 * MIB), mode="r|") as tf:
-            for member in tf:
-                members += 1
-                if members > limits.max_members:
-                    raise ArchiveTooLargeError(f"the archive has more than {limits.max_members} members")
-                rel = member_path(member.name)
-                if member.issym() or member.islnk():
-                    raise ArchiveError(f"archive member {member.name!r} is a link; links are refused")
-                if member.isdir():
-                    continue
-                if not member.isfile():
-                    raise ArchiveError(f"archive member {member.name!r} is not a regular file (a device or FIFO)")
-                if rel is None or not rel.name.lower().endswith(MESH_SUFFIXES):
-                    continue
-                fh = tf.extractfile(member)
-                take(rel, member.size, fh.read if fh else (lambda n: b""))
-    except (tarfile.TarError, gzip.BadGzipFile, zlib.error, EOFError, OSError) as exc:
-        if isinstance(exc, ArchiveError):
-            raise
-        raise ArchiveError(f"the body is not a readable tar archive: {exc}") from None
+    _each_tar_file(data, limits, kind == "gzip", _is_mesh, lambda member, rel, read: take(rel, member.size, read))
     return out, warnings

@@ -143,8 +143,24 @@ class DHRow:
         return DEFAULT_REVOLUTE_LIMITS if self.type == "revolute" else DEFAULT_PRISMATIC_LIMITS
 
 
+class TableRows:
+    """What a table of one row per moving joint (``rows``, each with a ``name``) tells from its rows:
+    the numeric :class:`DHTable` and the symbolic tables of :mod:`kinematics.algorithms.symbolic`."""
+
+    rows: tuple
+
+    @property
+    def dof(self) -> int:
+        return len(self.rows)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the moving joints: the order of q."""
+        return tuple(r.name for r in self.rows)
+
+
 @dataclass(frozen=True, eq=False)
-class DHTable:
+class DHTable(TableRows):
     """A validated DH table (immutable). Build one with :func:`table_from_dict`.
 
     Attributes:
@@ -182,15 +198,6 @@ class DHTable:
                 or np.max(np.abs(T[3] - [0, 0, 0, 1])) > RIGID_TOLERANCE
             ):
                 raise DHError(f"{key}: not a rigid transform")
-
-    @property
-    def dof(self) -> int:
-        return len(self.rows)
-
-    @property
-    def joint_names(self) -> tuple[str, ...]:
-        """Names of the moving joints: the order of q."""
-        return tuple(r.name for r in self.rows)
 
     def __repr__(self) -> str:
         return f"DHTable(name={self.name!r}, convention={self.convention!r}, dof={self.dof})"

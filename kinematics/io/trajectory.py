@@ -337,7 +337,29 @@ class _RowFile:
             start += A.shape[0]
 
 
-class JointRows(_RowFile):
+#: suffix of a joint's velocity column in a CSV header of joint states (``elbow_joint.qdot``)
+QDOT_SUFFIX = ".qdot"
+
+
+class _ModelRows(_RowFile):
+    """Rows of a model's joints: one column per joint for each of :attr:`suffixes` (``""``: the joint
+    values, :data:`QDOT_SUFFIX`: their velocities), ``joints`` in ``model.joint_names`` order."""
+
+    max_abs = MAX_ABS_JOINT_VALUE
+    #: the column groups, each one column per joint named ``<joint><suffix>``
+    suffixes = ("",)
+
+    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
+        require_joint_columns(model)
+        self.model = model
+        self.dof = model.dof
+        self.joints = list(model.joint_names)
+        self._name_set = set(self.joints)
+        self.names = [n + suffix for suffix in self.suffixes for n in self.joints]
+        super().__init__(source, fmt, name, chunk_rows)
+
+
+class JointRows(_ModelRows):
     """Configurations of a trajectory file, read in chunks.
 
     Iterating yields ``(start, Q)``: ``Q`` (n, dof) float64, finite, columns in
@@ -348,14 +370,6 @@ class JointRows(_RowFile):
 
     what = "joint values"
     many_columns = "one per joint"
-    max_abs = MAX_ABS_JOINT_VALUE
-
-    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
-        require_joint_columns(model)
-        self.model = model
-        self.names = list(model.joint_names)
-        self._name_set = set(self.names)
-        super().__init__(source, fmt, name, chunk_rows)
 
     def _label(self, column: str) -> str:
         return f"joint {column!r}"
@@ -403,11 +417,7 @@ class JointRows(_RowFile):
         )
 
 
-#: suffix of a joint's velocity column in a CSV header of joint states (``elbow_joint.qdot``)
-QDOT_SUFFIX = ".qdot"
-
-
-class StateRows(_RowFile):
+class StateRows(_ModelRows):
     """Joint values and joint velocities of a trajectory file, read in chunks (the input of
     ``kinematics velocity``).
 
@@ -420,15 +430,7 @@ class StateRows(_RowFile):
 
     what = "joint values and velocities"
     many_columns = "one per joint, then one velocity per joint"
-    max_abs = MAX_ABS_JOINT_VALUE
-
-    def __init__(self, source, model: RobotModel, fmt: str, name: str, chunk_rows: int = CHUNK_ROWS):
-        require_joint_columns(model)
-        self.model = model
-        self.dof = model.dof
-        self.joints = list(model.joint_names)
-        self.names = self.joints + [n + QDOT_SUFFIX for n in self.joints]
-        super().__init__(source, fmt, name, chunk_rows)
+    suffixes = ("", QDOT_SUFFIX)
 
     def _label(self, column: str) -> str:
         if column.endswith(QDOT_SUFFIX) and column[: -len(QDOT_SUFFIX)] in self.model.joint_map:

@@ -9,13 +9,11 @@ import numpy as np
 
 from ..algorithms import ik as _ik
 from ..algorithms.ik import IKSolution, inverse_kinematics, pose_errors
-from ..errors import JointValueError, KinematicsError
-from ..io.poses import pose_list
-from ..model.joint_values import as_batch
+from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
 from .ik_all import SOLUTIONS, ik_all
-from .query import Query, prefixed
+from .query import Query
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,22 +69,11 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
         return IKAnswer(Query.of(query, **options).robot, link, mode, is_batch, T, solution)
     query = Query.of(query, **options)
     model, budget = query.robot, query.budget
-    T, is_batch = pose_list(target, "target")
+    T, is_batch = query.targets(target)
     N = T.shape[0]
-    budget.check_batch(N)
-    if query.verify:
-        budget.check_verify(N)
     budget.check_ik_work(N, restarts, max_iterations)
     link = query.frame_link()
-    seeds = None
-    if seed is not None:
-        try:
-            S, _ = as_batch(model, seed, query.normalize)
-        except JointValueError as exc:
-            raise prefixed(exc, "seed: ") from None
-        if S.shape[0] not in (1, N):
-            raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
-        seeds = S
+    seeds = query.seeds(seed, N)
     B = query.base_poses(N)
     B = None if B is None else np.ascontiguousarray(B)
     T_tool = query.T_tool

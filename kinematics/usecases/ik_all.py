@@ -13,7 +13,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -24,10 +24,9 @@ from ..algorithms.ik import IKSolution, inverse_kinematics, pose_errors
 from ..algorithms.ik_families import detect, reduce_chain
 from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
-from ..model.joint_values import as_batch
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
-from .query import Query, prefixed
+from .query import Query
 
 SOLUTIONS = ("one", "all")
 
@@ -71,16 +70,24 @@ class IKAllAnswer:
                  "singular": bool(self.singular[n, k])} for k in range(int(self.count[n]))]
 
 
-def _seeds(query: Query, seed: Any, N: int) -> np.ndarray | None:
-    if seed is None:
-        return None
-    try:
-        S, _ = as_batch(query.robot, seed, query.normalize)
-    except JointValueError as exc:
-        raise prefixed(exc, "seed: ") from None
-    if S.shape[0] not in (1, N):
-        raise JointValueError(f"seed: {S.shape[0]} seeds for {N} targets (give one, or one per target)")
-    return S
+def parse_locked(items: Iterable[str] | None) -> dict[str, float]:
+    """``JOINT:VALUE`` strings (the command line's ``--locked``, the service's ``locked`` query
+    parameters) as the ``locked`` map ``{joint: value}``; a malformed one is a :class:`ValueError`
+    naming it.
+
+    >>> parse_locked(["shoulder_pan_joint:0.5", "wrist_3_joint:-1"])
+    {'shoulder_pan_joint': 0.5, 'wrist_3_joint': -1.0}
+    """
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, value = item.rpartition(":")
+        try:
+            if not sep or not name:
+                raise ValueError
+            out[name] = float(value)
+        except ValueError:
+            raise ValueError(f"{item!r} is not JOINT:VALUE") from None
+    return out
 
 
 def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = "pose",
@@ -101,18 +108,15 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     if query.floating_base:
         raise KinematicsError("floating_base: every IK solution needs a fixed base (give the base pose as base)")
     model, budget = query.robot, query.budget
-    T, is_batch = pose_list(target, "target")
+    T, is_batch = query.targets(target)
     N = T.shape[0]
-    budget.check_batch(N)
-    if query.verify:
-        budget.check_verify(N)
     link = query.frame_link()
     # the work: candidates x Newton steps per target (the search: its seeds x its steps)
     if detect(reduce_chain(model, link, locked)).closed_form and method != "numeric":
         budget.check_ik_work(N, 15, _ik_all.NEAR_STEPS)
     else:
         budget.check_ik_work(N, _ik_all.SEARCH_SEEDS - 1, _ik_all.SEARCH_STEPS)
-    seeds = _seeds(query, seed, N)
+    seeds = query.seeds(seed, N)
     if seeds is None and one:
         seeds = _ik.middle_of_limits(model)[None]
     B = query.base_poses(N)
@@ -188,7 +192,7 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
     link = query.frame_link()
     q0 = None
     if seed is not None:
-        S = _seeds(query, seed, 1)
+        S = query.seeds(seed, 1)
         if S.shape[0] != 1:
             raise JointValueError("seed: give one start configuration")
         q0 = S[0]

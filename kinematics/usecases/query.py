@@ -10,7 +10,8 @@ hand) and validated when built: the limits policy, the point or tool. Each use c
 :func:`~kinematics.usecases.ik.ik` ``(query, target)``, ... and does the shared steps through
 the query's methods, written once here: the joint values (:meth:`Query.joints`), the link(s)
 (:meth:`Query.link_names`, :meth:`Query.frame_link`), the size checks of verification and
-of the answer (:meth:`Query.check_sizes`) and the base poses (:meth:`Query.base_poses`).
+of the answer (:meth:`Query.check_sizes`), the base poses (:meth:`Query.base_poses`) and, for
+IK, the target poses and seeds (:meth:`Query.targets`, :meth:`Query.seeds`).
 
 For convenience every use case also takes a model and the query's fields as keywords
 (``fk(model, q, links=["tool0"])`` is ``fk(Query(model, links=["tool0"]), q)``): :meth:`Query.of`.
@@ -35,8 +36,8 @@ import numpy as np
 from ..engine.poe import compile_model
 from ..errors import BudgetError, ConfigurationNormError, JointValueError, KinematicsError
 from ..io.floating import with_floating_base
-from ..io.poses import base_poses, tool_offset
-from ..model.joint_values import limit_violations, out_of_limits, read_joint_values, require_within_limits
+from ..io.poses import base_poses, pose_list, tool_offset
+from ..model.joint_values import as_batch, limit_violations, out_of_limits, read_joint_values, require_within_limits
 from ..model.robot import RobotModel
 
 #: What to do with joint values outside their limits: compute and report them, or refuse.
@@ -173,6 +174,28 @@ class Query:
         if self.limits == "refuse":
             require_within_limits(self.robot, Q)
         return Q, is_batch
+
+    def targets(self, target: Any) -> tuple[np.ndarray, bool]:
+        """``(T (N, 4, 4), is_batch)``: the target pose(s) ``T_world_link`` of an IK request, within the
+        budget's batch size (and its verification size when :attr:`verify`)."""
+        T, is_batch = pose_list(target, "target")
+        self.budget.check_batch(T.shape[0])
+        if self.verify:
+            self.budget.check_verify(T.shape[0])
+        return T, is_batch
+
+    def seeds(self, seed: Any, n: int) -> np.ndarray | None:
+        """The IK seeds ``S`` (1 or n, nq) for ``n`` targets read as joint values of :attr:`robot`
+        (None without a seed); errors are prefixed ``seed:``."""
+        if seed is None:
+            return None
+        try:
+            S, _ = as_batch(self.robot, seed, self.normalize)
+        except JointValueError as exc:
+            raise prefixed(exc, "seed: ") from None
+        if S.shape[0] not in (1, n):
+            raise JointValueError(f"seed: {S.shape[0]} seeds for {n} targets (give one, or one per target)")
+        return S
 
     def link_names(self, default: str = "leaves") -> list[str]:
         """The links of a multi-link answer: :attr:`links` resolved (:func:`resolve_links`); None gives

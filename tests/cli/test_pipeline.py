@@ -420,3 +420,19 @@ def test_streaming_200k_rows_stays_in_bounded_memory(tmp_path, ur5, capsys):
     rows = np.array([0, 12_345, 99_999, 100_000, n - 1])
     Qcheck = np.loadtxt(src, delimiter=",", skiprows=1, max_rows=n)[rows]
     np.testing.assert_allclose(T[rows], compile_model(ur5).fk(Qcheck), rtol=0, atol=TOL)
+
+
+def test_an_atomic_file_replaces_its_destination_only_when_done(tmp_path):
+    from kinematics.cli.pipeline import atomic_file
+
+    dest = tmp_path / "out.bin"
+    dest.write_bytes(b"old")
+    with pytest.raises(RuntimeError):
+        with atomic_file(str(dest), ".out.") as fh:
+            fh.write(b"half")
+            raise RuntimeError("interrupted")
+    assert dest.read_bytes() == b"old" and os.listdir(tmp_path) == ["out.bin"]
+    with atomic_file(str(dest), ".out.") as fh:
+        fh.write(b"new")
+    assert dest.read_bytes() == b"new" and os.listdir(tmp_path) == ["out.bin"]
+    assert stat.S_IMODE(dest.stat().st_mode) == 0o644

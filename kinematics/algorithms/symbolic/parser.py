@@ -237,7 +237,7 @@ class SymbolicDHRow:
 
 
 @dataclass(frozen=True, eq=False)
-class SymbolicDHTable:
+class SymbolicDHTable(dh.TableRows):
     """A DH table with symbolic entries (:func:`symbolic_table_from_dict`); base and tool are numeric."""
 
     name: str
@@ -246,14 +246,6 @@ class SymbolicDHTable:
     base: np.ndarray
     tool: np.ndarray
     angles: str = "radians"
-
-    @property
-    def dof(self) -> int:
-        return len(self.rows)
-
-    @property
-    def joint_names(self) -> tuple[str, ...]:
-        return tuple(r.name for r in self.rows)
 
     @property
     def parameters(self) -> tuple[sp.Symbol, ...]:

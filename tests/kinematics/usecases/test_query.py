@@ -62,6 +62,24 @@ def test_the_shared_steps(ur5):
         Query(ur5, limits="refuse").joints([10.0] * 6)
 
 
+def test_the_shared_steps_of_ik(ur5):
+    query = Query(ur5, budget=Budget(max_batch=2, max_verify=1), verify=True)
+    T, is_batch = query.targets(np.eye(4))
+    assert T.shape == (1, 4, 4) and not is_batch
+    with pytest.raises(BudgetError) as exc:
+        query.targets(np.stack([np.eye(4)] * 2))
+    assert exc.value.budget == "verify"
+    with pytest.raises(BudgetError) as exc:
+        Query(ur5, budget=Budget(max_batch=2)).targets(np.stack([np.eye(4)] * 3))
+    assert exc.value.budget == "batch"
+    assert query.seeds(None, 3) is None
+    assert query.seeds([0.1] * 6, 3).shape == (1, 6) and query.seeds([[0.1] * 6] * 3, 3).shape == (3, 6)
+    with pytest.raises(JointValueError, match=r"^seed: 2 seeds for 3 targets"):
+        query.seeds([[0.1] * 6] * 2, 3)
+    with pytest.raises(JointValueError, match=r"^seed: "):
+        query.seeds([0.1] * 5, 1)
+
+
 def test_every_use_case_takes_a_query_or_a_model_and_keywords(ur5):
     q = [0.1, -1.0, 1.2, 0.3, 0.5, -0.2]
     query = Query(ur5, link="tool0", links=["tool0"], point=[0, 0, 0.1])
