@@ -22,9 +22,10 @@ Typical use::
     array([ True])
 """
 
-from .usecases import (Budget, FKAnswer, IKAnswer, JacobianAnswer, Query, TaskAnswer, Verification, VelocityAnswer,
-                       fk, ik, jacobian, joint_batch, load_model, symbolic, symbolic_dh, task, velocity, warm_up,
-                       workspace)
+from .usecases import (Budget, CollisionAnswer, FKAnswer, IKAllAnswer, IKAnswer, JacobianAnswer, Query, TaskAnswer,
+                       Verification, VelocityAnswer, calibrate, calibration_poses, collision, collision_free,
+                       collision_matrix, fk, ik, ik_all, ik_family, ik_path, jacobian, joint_batch, load_model,
+                       symbolic, symbolic_dh, task, velocity, warm_up, workspace)
 from .engine.parallel import set_threads, thread_count, threads
 from .engine.poe import PoEModel, compile_model
 from .engine.single import fk_function, jacobian_function
@@ -53,7 +54,8 @@ __version__ = "0.1.0"
 __all__ = [
     "Budget", "FKAnswer", "IKAnswer", "JacobianAnswer", "Query", "TaskAnswer", "Verification", "VelocityAnswer", "fk",
     "ik", "jacobian", "joint_batch", "load_model", "symbolic", "symbolic_dh", "task", "velocity", "warm_up",
-    "workspace",
+    "workspace", "CollisionAnswer", "IKAllAnswer", "calibrate", "calibration_poses", "collision", "collision_free",
+    "collision_matrix", "ik_all", "ik_family", "ik_path",
     "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
     "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
