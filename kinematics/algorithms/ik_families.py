@@ -35,6 +35,7 @@ from ..errors import KinematicsError, LockedJointError, did_you_mean
 from ..model.robot import RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
+from . import ik_general
 
 #: an exact family: axes parallel / meeting within these (radians, metres)
 EXACT_ANGLE, EXACT_DISTANCE = 1e-9, 1e-9
@@ -289,7 +290,6 @@ def detect(ch: Chain) -> Family:
                     else fam.name + "_reversed"
                 return replace(fam, name=name, chain=ch, reversed=True, near=near)
     # ---- chains with no subproblem family: the closed forms and the elimination of ik_general
-    from . import ik_general  # (a function-level import: ik_general builds on Chain)
     if ch.n < 6 and ch.n > 0:
         # a short chain: planar when every axis is parallel to the first revolute one (2R, 3R, SCARA)
         kernel = ik_general.short_kernel(ch)

@@ -48,9 +48,13 @@ position ``q₂``: one solution.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from .ik_families import Chain
+#: a :class:`kinematics.algorithms.ik_families.Chain` (its ``n``, ``h``, ``r``, ``revolute``, ``M``,
+#: ``mimic``); not imported, since the family detection imports this module
+Chain = Any
 
 #: the angle shifts of θ3, θ4, θ5 before the half-angle substitution (no root at x = ∞)
 SHIFT3, SHIFT4, SHIFT5 = 0.5173, -0.3311, 0.7219
