@@ -127,101 +127,111 @@ class _Model6R:
         self.Ps = P_half - self.P0
         self.scale = max(1.0, float(np.abs(np.concatenate([self.P0, self.Pc, self.Ps])).max()))
 
-    def right(self, G: np.ndarray) -> tuple[np.ndarray, float]:
-        """The right side of one target g (4, 4): Q9 (14, 9) with Q9 m12 = the 14 quantities, and the fit residual."""
+    def right(self, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The right sides of N targets g (N, 4, 4): Q9 (N, 14, 9) with Q9 m12 = the 14 quantities, and
+        each fit's residual (N,)."""
         h, r = self.h, self.r
-        K = len(_GRID)
-        q1, q2 = _GRID[:, 0], _GRID[:, 1]
-        x = np.repeat((G[:3, :3] @ r[5] + G[:3, 3])[None], K, 0)
-        x = _move(h[0], r[0], -q1, x)
-        x = _move(h[1], r[1], -q2, x)
-        lv = np.einsum("kij,kj->ki", _rot(h[1], -q2) @ _rot(h[0], -q1), np.repeat((G[:3, :3] @ h[5])[None], K, 0))
-        F = _fourteen(x - r[2], lv)
-        C = _GRID_PINV @ F
-        return C.T, float(np.abs(_GRID_BASIS @ C - F).max())
+        R1, R2 = _rot(h[0], -_GRID[:, 0]), _rot(h[1], -_GRID[:, 1])  # (K, 3, 3)
+        x = np.einsum("nij,j->ni", G[:, :3, :3], r[5]) + G[:, :3, 3]   # g(r6), (N, 3)
+        x = np.einsum("kij,nj->nki", R1, x - r[0]) + r[0]             # e1⁻¹, then e2⁻¹: (N, K, 3)
+        x = np.einsum("kij,nkj->nki", R2, x - r[1]) + r[1]
+        lv = np.einsum("kij,nj->nki", R2 @ R1, np.einsum("nij,j->ni", G[:, :3, :3], h[5]))
+        N, K = x.shape[:2]
+        F = _fourteen((x - r[2]).reshape(-1, 3), lv.reshape(-1, 3)).reshape(N, K, 14)
+        C = np.einsum("bk,nkf->nbf", _GRID_PINV, F)                  # (N, 9, 14)
+        res = np.abs(np.einsum("kb,nbf->nkf", _GRID_BASIS, C) - F).max(axis=(1, 2))
+        return C.transpose(0, 2, 1), res
 
 
-def _real_roots(M0: np.ndarray, M1: np.ndarray, M2: np.ndarray) -> np.ndarray:
-    """The real x (within :data:`REAL_TOLERANCE`) with det(M0 + M1 x + M2 x²) = 0: the eigenvalues of the
-    companion matrix [[0, I], [−M2⁻¹M0, −M2⁻¹M1]] (24 x 24), or of the reversed polynomial's (roots 1/x)
-    when M0 is the better conditioned of M0, M2."""
+def _big(Sig: np.ndarray) -> np.ndarray:
+    """(N, 6, 9) over x4^i x5^j (i <= 2) -> (N, 12, 12) over x4^i x5^j (i <= 3): the rows, and the rows times x4."""
+    out = np.zeros((len(Sig), 12, 4, 3))
+    S3 = Sig.reshape(-1, 6, 3, 3)
+    out[:, :6, :3] = S3
+    out[:, 6:, 1:] = S3
+    return out.reshape(-1, 12, 12)
+
+
+def _real_roots(M0: np.ndarray, M1: np.ndarray, M2: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """For each n, the real x (within :data:`REAL_TOLERANCE`) with det(M0 + M1 x + M2 x²) = 0 (M_k: (N, 12, 12)):
+    the eigenvalues of the companion matrix [[0, I], [−M2⁻¹M0, −M2⁻¹M1]] (24 x 24), or of the reversed
+    polynomial's (roots 1/x) where M0 is the better conditioned of M0, M2; and a (N,) mask of the
+    degenerate ones (both ends ill-conditioned: det M(x) may vanish identically)."""
+    N = len(M0)
     c0, c2 = np.linalg.cond(M0), np.linalg.cond(M2)
-    if min(c0, c2) > DEGENERATE_CONDITION:
-        return None  # the pencil may be singular (det M(x) ≡ 0): not a finite set of roots
+    degenerate = ~(np.minimum(c0, c2) <= DEGENERATE_CONDITION)
     reverse = c0 < c2
-    lead, mid, last = (M0, M1, M2) if reverse else (M2, M1, M0)
-    Z, I = np.zeros((12, 12)), np.eye(12)
-    comp = np.block([[Z, I], [-np.linalg.solve(lead, last), -np.linalg.solve(lead, mid)]])
+    lead = np.where(reverse[:, None, None], M0, M2)
+    last = np.where(reverse[:, None, None], M2, M0)
+    lead[degenerate] = np.eye(12)
+    comp = np.zeros((N, 24, 24))
+    comp[:, :12, 12:] = np.eye(12)
+    comp[:, 12:, :12] = -np.linalg.solve(lead, last)
+    comp[:, 12:, 12:] = -np.linalg.solve(lead, M1)
     lam = np.linalg.eigvals(comp)
-    lam = lam[np.abs(lam.imag) <= REAL_TOLERANCE * (1 + np.abs(lam))].real
-    if reverse:
-        lam = 1.0 / lam[np.abs(lam) > 1e-14]
-    return lam
+    out = []
+    for n in range(N):
+        x = lam[n][np.abs(lam[n].imag) <= REAL_TOLERANCE * (1 + np.abs(lam[n]))].real
+        if reverse[n]:
+            x = 1.0 / x[np.abs(x) > 1e-14]
+        out.append(x)
+    return out, degenerate
 
 
-def _solve_one(m: _Model6R, G: np.ndarray) -> list[np.ndarray]:
-    """Candidate joint values (each (6,)) of one target g = T M⁻¹."""
+def _solve(m: _Model6R, G: np.ndarray) -> list[np.ndarray | None]:
+    """For each target g = T M⁻¹ (N, 4, 4): its candidates (K, 6), or None where the elimination degenerates."""
+    N = len(G)
     Q9, res = m.right(G)
-    scale = max(m.scale, float(np.abs(Q9).max()))
-    if res > FIT_TOLERANCE * scale:
-        return None
-    Q = Q9[:, [0, 1, 3, 4, 2, 5, 6, 7]]    # m12 columns without the constant: s1s2 s1c2 c1s2 c1c2 s1 c1 s2 c2
-    const = Q9[:, 8]
-    P0 = m.P0.copy()
-    P0[:, 8] -= const                        # P(θ3) m45 − const = Q m12
+    bad = res > FIT_TOLERANCE * np.maximum(m.scale, np.abs(Q9).max(axis=(1, 2)))
+    Q = Q9[:, :, [0, 1, 3, 4, 2, 5, 6, 7]]   # m12 columns without the constant: s1s2 s1c2 c1s2 c1c2 s1 c1 s2 c2
+    P0 = np.repeat(m.P0[None], N, 0)
+    P0[:, :, 8] -= Q9[:, :, 8]                # P(θ3) m45 − const = Q m12
     U, S, _ = np.linalg.svd(Q)
-    if S[-1] < 1e-10 * S[0]:
-        return None                          # a degenerate target or chain: the elimination does not apply
-    N = U[:, 8:].T                           # (6, 14): N Q = 0
-    S0, Sc, Ss = N @ P0, N @ m.Pc, N @ m.Ps  # Σ(θ3) = S0 + c3 Sc + s3 Ss, (6, 9)
+    bad |= S[:, -1] < 1e-10 * S[:, 0]         # the 8 unknowns of the right side dependent: no elimination
+    Nl = U[:, :, 8:].transpose(0, 2, 1)       # (N, 6, 14): Nl Q = 0
+    Qpinv = np.linalg.pinv(Q)                 # (N, 8, 14)
+    S0, Sc, Ss = Nl @ P0, Nl @ m.Pc, Nl @ m.Ps  # Σ(θ3) = S0 + c3 Sc + s3 Ss, (N, 6, 9)
     cd, sd = np.cos(SHIFT3), np.sin(SHIFT3)  # θ3 = φ + SHIFT3
     A, B = cd * Sc + sd * Ss, -sd * Sc + cd * Ss
     # (1 + x²) Σ = (S0 + A) + 2 B x + (S0 − A) x², then in x4^i x5^j (i, j <= 2)
-    coef = [(S0 + A) @ _HALF2, 2 * B @ _HALF2, (S0 - A) @ _HALF2]
-
-    def big(Sig):  # (6, 9) over x4^i x5^j (i<=2) -> (12, 12) over x4^i x5^j (i<=3): the rows and the rows times x4
-        out = np.zeros((12, 12))
-        S3 = Sig.reshape(6, 3, 3)
-        out[:6].reshape(6, 4, 3)[:, :3] = S3
-        out[6:].reshape(6, 4, 3)[:, 1:] = S3
-        return out
-
-    M0, M1, M2 = (big(c) for c in coef)
-    real = _real_roots(M0, M1, M2)
-    if real is None:
-        return None
-    out = []
-    h, r = m.h, m.r
-    for x3 in real:
+    M0, M1, M2 = _big((S0 + A) @ _HALF2), _big(2 * B @ _HALF2), _big((S0 - A) @ _HALF2)
+    roots, degenerate = _real_roots(M0, M1, M2)
+    bad |= degenerate
+    owner = np.concatenate([np.full(len(x), n, dtype=np.intp) for n, x in enumerate(roots)])
+    x3 = np.concatenate(roots)
+    keep = ~bad[owner]
+    owner, x3 = owner[keep], x3[keep]
+    h = m.h
+    if len(x3):
         phi3 = 2 * np.arctan(x3) + SHIFT3
-        Mx = M0 + M1 * x3 + M2 * x3 * x3
-        w = np.linalg.svd(Mx)[2][-1].reshape(4, 3)  # ∝ x4^i x5^j
-        den4, num4 = w[:3].ravel(), w[1:].ravel()
-        x4 = float(num4 @ den4 / max(den4 @ den4, 1e-300))
-        den5, num5 = w[:, :2].ravel(), w[:, 1:].ravel()
-        x5 = float(num5 @ den5 / max(den5 @ den5, 1e-300))
+        Mx = M0[owner] + M1[owner] * x3[:, None, None] + M2[owner] * (x3 * x3)[:, None, None]
+        w = np.linalg.svd(Mx)[2][:, -1].reshape(-1, 4, 3)  # ∝ x4^i x5^j
+        den4, num4 = w[:, :3].reshape(-1, 9), w[:, 1:].reshape(-1, 9)
+        x4 = np.sum(num4 * den4, axis=1) / np.maximum(np.sum(den4 * den4, axis=1), 1e-300)
+        den5, num5 = w[:, :, :2].reshape(-1, 8), w[:, :, 1:].reshape(-1, 8)
+        x5 = np.sum(num5 * den5, axis=1) / np.maximum(np.sum(den5 * den5, axis=1), 1e-300)
         phi4, phi5 = 2 * np.arctan(x4), 2 * np.arctan(x5)
-        t4, t5 = phi4 + SHIFT4, phi5 + SHIFT5
-        m45 = _basis(np.array([phi4]), np.array([phi5]))[0]
-        c3, s3 = np.cos(phi3), np.sin(phi3)
-        rhs = (P0 + c3 * m.Pc + s3 * m.Ps) @ m45
-        m12 = np.linalg.lstsq(Q, rhs, rcond=None)[0]
-        t1 = np.arctan2(m12[4], m12[5])
-        t2 = np.arctan2(m12[6], m12[7])
-        q = np.array([t1, t2, phi3, t4, t5, 0.0])
+        m45 = _basis(phi4, phi5)
+        c3, s3 = np.cos(phi3)[:, None, None], np.sin(phi3)[:, None, None]
+        rhs = np.einsum("rij,rj->ri", P0[owner] + c3 * m.Pc + s3 * m.Ps, m45)
+        m12 = np.einsum("rij,rj->ri", Qpinv[owner], rhs)
+        q = np.stack([np.arctan2(m12[:, 4], m12[:, 5]), np.arctan2(m12[:, 6], m12[:, 7]), phi3,
+                      phi4 + SHIFT4, phi5 + SHIFT5, np.zeros(len(x3))], axis=1)
         # θ6 from the orientation: R6 = (R1 ... R5)ᵀ R_g, a rotation about h6 (subproblem 1 on a vector ⊥ h6)
-        R = np.eye(3)
-        for j in range(5):
-            R = R @ _rot(h[j], q[j:j + 1])[0]
-        R6 = R.T @ G[:3, :3]
+        R = _rot(h[0], q[:, 0])
+        for j in range(1, 5):
+            R = R @ _rot(h[j], q[:, j])
+        R6 = np.einsum("rji,rjk->rik", R, G[owner, :3, :3])
         v = np.cross(h[5], [1.0, 0.0, 0.0])
         if np.linalg.norm(v) < 0.5:
             v = np.cross(h[5], [0.0, 1.0, 0.0])
         v /= np.linalg.norm(v)
         wv = R6 @ v
-        q[5] = np.arctan2(h[5] @ np.cross(v, wv), v @ wv)
-        out.append(np.mod(q + np.pi, 2 * np.pi) - np.pi)
-    return out
+        q[:, 5] = np.arctan2(np.cross(v, wv) @ h[5], wv @ v)
+        q = np.mod(q + np.pi, 2 * np.pi) - np.pi
+    else:
+        q = np.zeros((0, 6))
+    return [None if bad[n] else q[owner == n] for n in range(N)]
 
 
 def general_6r_candidates(chain: Chain, T_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -231,15 +241,14 @@ def general_6r_candidates(chain: Chain, T_root: np.ndarray) -> tuple[np.ndarray,
     gets count −1 (the caller searches there; see :func:`usable`)."""
     T_root = np.asarray(T_root, dtype=float).reshape(-1, 4, 4)
     m = _model(chain)
-    Minv = np.linalg.inv(chain.M)
-    sols = [_solve_one(m, T @ Minv) for T in T_root]
+    sols = _solve(m, np.einsum("nij,jk->nik", T_root, np.linalg.inv(chain.M))) if len(T_root) else []
     K = max(16, max((len(s) for s in sols if s is not None), default=0))
     Q = np.zeros((len(T_root), K, 6))
     count = np.zeros(len(T_root), dtype=np.int64)
     for n, s in enumerate(sols):
         count[n] = -1 if s is None else len(s)
-        if s:
-            Q[n, :len(s)] = np.array(s)
+        if s is not None and len(s):
+            Q[n, :len(s)] = s
     return Q, count
 
 
@@ -276,8 +285,8 @@ def usable(chain: Chain, trials: int = 3) -> bool:
             E[:3, :3] = _rot(chain.h[j], q[j:j + 1])[0]
             E[:3, 3] = chain.r[j] - E[:3, :3] @ chain.r[j]
             G = G @ E
-        sols = _solve_one(m, G)
-        if not sols or np.abs(np.angle(np.exp(1j * (np.array(sols) - q)))).max(axis=1).min() > 1e-6:
+        sols = _solve(m, G[None])[0]
+        if sols is None or not len(sols) or np.abs(np.angle(np.exp(1j * (np.array(sols) - q)))).max(axis=1).min() > 1e-6:
             return False
     return True
 
