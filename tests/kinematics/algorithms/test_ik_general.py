@@ -178,3 +178,56 @@ def test_planar_2r_out_of_reach_and_limits(catalogue):
     sol = all_solutions(model, link, T, limits="ignore", mode="position")
     assert sol.count[0] == 1 and sol.singular[0, 0]
     np.testing.assert_allclose(sol.q[0, 0], [np.pi / 2, 0.0], atol=1e-6)
+
+
+def test_general_6r_twelve_solutions_all_found():
+    """A target with 12 real solutions (of at most 16): the elimination lists all 12, the dense search no more."""
+    rng = np.random.default_rng(237)
+    rows = [{"type": "revolute", "a": float(rng.uniform(0.05, 1.0)), "alpha": float(rng.uniform(-3, 3)),
+             "d": float(rng.uniform(-0.5, 0.5)), "theta": 0.0, "limits": [-3.1, 3.1]} for _ in range(6)]
+    model = model_from_table(table_from_dict({"name": "twelve", "convention": "standard", "joints": rows}))
+    link = model.leaf_links[0]
+    q = rng.uniform(-np.pi, np.pi, (40, 6))[15]
+    T = compile_model(model).fk(q[None], [link])[:, 0]
+    ours = all_solutions(model, link, T, limits="ignore")
+    assert ours.count[0] == 12 and _contains(ours.q[0, :12], q)
+    search = all_solutions(model, link, T, limits="ignore", method="numeric", search_seeds=4096)
+    assert search.count[0] <= 12
+    for s in search.q[0, :search.count[0]]:
+        assert _contains(ours.q[0, :12], s)
+    _pinocchio_exact(model, link, ours, T)
+
+
+def test_a_7r_arm_with_a_locked_joint_and_no_family_is_a_general_6r():
+    rng = np.random.default_rng(77)
+    rows = [{"name": f"j{i + 1}", "type": "revolute", "a": float(rng.uniform(0.05, 0.4)),
+             "alpha": float(rng.uniform(0.3, 1.3)), "d": float(rng.uniform(0.05, 0.3)), "theta": 0.0,
+             "limits": [-3.1, 3.1]} for i in range(7)]
+    model = model_from_table(table_from_dict({"name": "random_7r", "convention": "standard", "joints": rows}))
+    link = model.leaf_links[0]
+    locked = {"j3": 0.7}
+    assert detect(reduce_chain(model, link, locked)).name == "general_6r"
+    Q = model.sample_configurations(3, np.random.default_rng(5), continuous_range=np.pi)
+    Q[:, model.q_index["j3"]] = 0.7
+    T = compile_model(model).fk(Q, [link])[:, 0]
+    ours = all_solutions(model, link, T, limits="ignore", locked=locked)
+    search = all_solutions(model, link, T, limits="ignore", locked=locked, method="numeric", search_seeds=2048)
+    cols = [model.q_index[f"j{i}"] for i in (1, 2, 4, 5, 6, 7)]
+    for n in range(3):
+        mine = ours.q[n, :ours.count[n]]
+        assert np.all(mine[:, model.q_index["j3"]] == 0.7)
+        assert _contains(mine[:, cols], Q[n, cols])
+        for s in search.q[n, :search.count[n]]:
+            assert _contains(mine[:, cols], s[cols])
+    _pinocchio_exact(model, link, ours, T)
+
+
+def test_general_6r_batch_equals_single():
+    model = _random_6r(101)
+    link = model.leaf_links[0]
+    _, T = _targets(model, link, 5, seed=8)
+    batch = all_solutions(model, link, T, limits="ignore")
+    for n in range(len(T)):
+        one = all_solutions(model, link, T[n:n + 1], limits="ignore")
+        assert one.count[0] == batch.count[n]
+        np.testing.assert_array_equal(one.q[0, :one.count[0]], batch.q[n, :batch.count[n]])
