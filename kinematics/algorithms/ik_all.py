@@ -7,8 +7,10 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
    (:mod:`kinematics.algorithms.ik_families`);
 2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
    allocation-free form of :mod:`kinematics.engine.ik_closed`,
-   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), or -- for a chain with no
-   closed form (``method: "numeric"``, a general 6R, chains of fewer joints) -- damped Newton
+   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), the kernels of
+   :mod:`kinematics.algorithms.ik_general` (a general 6R by the 16-degree elimination, the planar
+   and RPR short chains in closed form), or -- for a chain with no closed form (``method:
+   "numeric"``, a 6-joint chain with a prismatic joint and no family, other short chains) -- damped Newton
    from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
    finds what its seeds reach, it does not prove that nothing is missed);
 3. **polishes** every candidate with Newton steps on the real model's FK and Jacobian (the
