@@ -260,10 +260,12 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")
-    if method == "analytic" and not fam.closed_form:
+    position_only = mode == "position"
+    # (a short chain's closed form solves a pose; of a position alone, only the 2R's)
+    short_position = position_only and fam.kernel in ik_general.KERNELS and fam.kernel not in ik_general.POSITION_KERNELS
+    if method == "analytic" and (not fam.closed_form or short_position):
         raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
                               "use 'auto' or 'numeric'")
-    position_only = mode == "position"
     if position_only and chain.n > 3:
         raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
                               "so a position alone has infinitely many solutions; give a pose, or lock joints")

@@ -231,3 +231,14 @@ def test_general_6r_batch_equals_single():
         one = all_solutions(model, link, T[n:n + 1], limits="ignore")
         assert one.count[0] == batch.count[n]
         np.testing.assert_array_equal(one.q[0, :one.count[0]], batch.q[n, :batch.count[n]])
+
+
+def test_analytic_refused_where_a_short_chain_has_no_closed_form(catalogue):
+    """A 3R planar arm given a position alone has infinitely many solutions: no closed form lists them."""
+    from kinematics.errors import KinematicsError
+    model = catalogue.get("planar_3r")
+    link = model.leaf_links[0]
+    _, T = _targets(model, link, 1, seed=2)
+    with pytest.raises(KinematicsError, match="analytic"):
+        all_solutions(model, link, T, mode="position", method="analytic")
+    assert all_solutions(model, link, T, mode="pose", method="analytic").method == "analytic"
