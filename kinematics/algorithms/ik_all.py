@@ -179,7 +179,7 @@ def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | Non
                             position_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
     if fam.kernel in ik_general.KERNELS:  # general 6R elimination, short-chain closed forms
-        return ik_general.candidates(fam.kernel, fam.chain, T_root, position_only)
+        return ik_general.family_candidates(fam, T_root, position_only)
     ideal = fam.ideal
     targets = inverse_transform(T_root) if fam.reversed else T_root
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer

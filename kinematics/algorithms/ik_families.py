@@ -301,7 +301,12 @@ def detect(ch: Chain) -> Family:
             return Family("planar", (3, 1) if kernel else (), bool(kernel), 2 if rev.size >= 2 else 1, ch,
                           ch if kernel else None, kernel=kernel)
         return Family("short_chain", (), False, None, ch)
-    if ch.n == 6 and ik_general.usable(ch):
-        # every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem)
-        return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+    if ch.n == 6:
+        # every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem), on the
+        # chain or, where its geometry makes the elimination degenerate, on the reversed chain
+        if ik_general.usable(ch):
+            return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+        rch = ch.reversed()
+        if ik_general.usable(rch):
+            return Family("general_6r", (1,), True, 16, ch, rch, reversed=True, kernel="general_6r")
     return Family("general", (), False, 16 if ch.n == 6 else None, ch)

@@ -392,3 +392,14 @@ def candidates(kernel: str, chain: Chain, T_root: np.ndarray, position_only: boo
         if s:
             Q[n, :len(s)] = np.array(s)
     return Q, count
+
+
+def family_candidates(fam: Any, T_root: np.ndarray, position_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`candidates` of a :class:`~kinematics.algorithms.ik_families.Family` with one of this module's
+    kernels: on its ``ideal`` chain, and for a ``reversed`` family on the reversed chain (targets
+    inverted, then ``q_k = −q'_{n−1−k}``)."""
+    if not fam.reversed:
+        return candidates(fam.kernel, fam.chain, T_root, position_only)
+    T_root = np.asarray(T_root, dtype=float).reshape(-1, 4, 4)
+    Q, count = candidates(fam.kernel, fam.ideal, np.linalg.inv(T_root), position_only)
+    return -Q[:, :, ::-1], count

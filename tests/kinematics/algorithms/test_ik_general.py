@@ -93,23 +93,33 @@ def test_general_6r_raw_candidates_are_near_exact_and_include_the_generating_con
         assert _distance(cand[n, :count[n]], Q[n]).min() < 1e-6
 
 
-def test_a_6r_of_special_geometry_the_elimination_does_not_fit_is_left_to_the_search():
-    """Two pairs of meeting axes (a1 = a4 = 0, no family): either the elimination applies (and is then
-    complete) or the chain is 'general' (the search); never a silent empty answer."""
-    rows = [{"type": "revolute", "a": a, "alpha": al, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]}
-            for a, al, d in [(0.0, 1.2, 0.3), (0.35, 0.4, 0.1), (0.2, 1.0, 0.0), (0.0, 0.8, 0.25), (0.1, 1.3, 0.1),
-                             (0.15, 0.5, 0.1)]]
+@pytest.mark.parametrize("table, family, reversed_, method", [
+    # axes 1 and 2 meet (a1 = 0): the 8 products of q1, q2 are dependent; the reversed chain's are not
+    ([(1.2, 0.0, 0.3), (0.4, 0.35, 0.1), (1.0, 0.2, 0.0), (0.8, 0.0, 0.25), (1.3, 0.1, 0.1), (0.5, 0.15, 0.1)],
+     "general_6r", True, "analytic"),
+    # a Jaco-like arm (axes 1, 2 meet, 2 ∥ 3, axes 4, 5, 6 each meeting the next): degenerate both ways,
+    # left to the multistart search
+    ([(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502), (1.047, 0, -0.0858),
+      (np.pi, 0, -0.2116)], "general", False, "search"),
+])
+def test_a_6r_of_special_geometry_reversed_or_left_to_the_search(table, family, reversed_, method):
+    """Never a silent empty answer: where the elimination degenerates on the chain it runs on the
+    reversed chain, and where it degenerates both ways the chain is 'general' (the search)."""
+    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
     model = model_from_table(table_from_dict({"name": "special", "convention": "standard", "joints": rows}))
     link = model.leaf_links[0]
     fam = detect(reduce_chain(model, link))
-    assert fam.name in ("general_6r", "general")
-    Q, T = _targets(model, link, 2, seed=4)
+    assert (fam.name, fam.reversed) == (family, reversed_)
+    Q, T = _targets(model, link, 3, seed=4)
     ours = all_solutions(model, link, T, limits="ignore")
-    search = all_solutions(model, link, T, limits="ignore", method="numeric", search_seeds=1024)
+    assert ours.method == method
+    search = all_solutions(model, link, T, limits="ignore", method="numeric", search_seeds=2048)
     for n in range(len(T)):
         assert _contains(ours.q[n, :ours.count[n]], Q[n])
+        assert search.count[n] == ours.count[n]
         for q in search.q[n, :search.count[n]]:
             assert _contains(ours.q[n, :ours.count[n]], q)
+    _pinocchio_exact(model, link, ours, T)
 
 
 def test_general_6r_unreachable_target_has_no_solutions():
