@@ -252,3 +252,29 @@ def test_analytic_refused_where_a_short_chain_has_no_closed_form(catalogue):
     with pytest.raises(KinematicsError, match="analytic"):
         all_solutions(model, link, T, mode="position", method="analytic")
     assert all_solutions(model, link, T, mode="pose", method="analytic").method == "analytic"
+
+
+def test_every_ik_geo_general_6r_solution_is_one_of_ours():
+    """IK-Geo's general 6R (a 2-D search, the bench extra): each of its answers, polished by the numerical
+    solver, is among the elimination's solutions (it finds fewer: its answers are approximate)."""
+    ik_geo = pytest.importorskip("ik_geo")
+    model = _random_6r(101)
+    link = model.leaf_links[0]
+    chain = reduce_chain(model, link)
+    H = chain.h
+    P = np.vstack([chain.r[0], np.diff(chain.r, axis=0), chain.M[:3, 3] - chain.r[-1]])
+    geo = ik_geo.Robot.gen_six_dof(H.tolist(), P.tolist())
+    _, T = _targets(model, link, 8, seed=3)
+    ours = all_solutions(model, link, T, limits="ignore")
+    polished = 0
+    for n in range(len(T)):
+        R = T[n, :3, :3] @ chain.M[:3, :3].T  # their tool frame: the base's orientation at q = 0
+        s = np.array([q for q, _ in geo.get_ik(R.T.tolist(), T[n, :3, 3].tolist())]).reshape(-1, 6)
+        if not len(s):
+            continue
+        theirs = inverse_kinematics(model, link, np.repeat(T[n:n + 1], len(s), 0), s, restarts=0,
+                                    position_tolerance=1e-10, rotation_tolerance=1e-10)
+        for q in theirs.q[theirs.success]:
+            polished += 1
+            assert _contains(ours.q[n, :ours.count[n]], q), (n, q)
+    assert polished > 0
