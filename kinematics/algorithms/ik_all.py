@@ -7,8 +7,10 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
    (:mod:`kinematics.algorithms.ik_families`);
 2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
    allocation-free form of :mod:`kinematics.engine.ik_closed`,
-   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), or -- for a chain with no
-   closed form (``method: "numeric"``, a general 6R, chains of fewer joints) -- damped Newton
+   on the *ideal* chain for a robot near a family, e.g. a calibrated UR), the kernels of
+   :mod:`kinematics.algorithms.ik_general` (a general 6R by the 16-degree elimination, the planar
+   and RPR short chains in closed form), or -- for a chain with no closed form (``method:
+   "numeric"``, a 6-joint chain with a prismatic joint and no family, other short chains) -- damped Newton
    from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
    finds what its seeds reach, it does not prove that nothing is missed);
 3. **polishes** every candidate with Newton steps on the real model's FK and Jacobian (the
@@ -48,6 +50,7 @@ from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
+from . import ik_general
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain
 
@@ -172,8 +175,11 @@ def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
     return lo + u * (hi - lo)
 
 
-def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None,
+                            position_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
+    if fam.kernel in ik_general.KERNELS:  # general 6R elimination, short-chain closed forms
+        return ik_general.family_candidates(fam, T_root, position_only)
     ideal = fam.ideal
     targets = inverse_transform(T_root) if fam.reversed else T_root
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer
@@ -254,15 +260,18 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")
-    if method == "analytic" and not fam.closed_form:
+    position_only = mode == "position"
+    # (a short chain's closed form solves a pose; of a position alone, only the 2R's)
+    short_position = position_only and fam.kernel in ik_general.KERNELS and fam.kernel not in ik_general.POSITION_KERNELS
+    if method == "analytic" and (not fam.closed_form or short_position):
         raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
                               "use 'auto' or 'numeric'")
-    position_only = mode == "position"
     if position_only and chain.n > 3:
         raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
                               "so a position alone has infinitely many solutions; give a pose, or lock joints")
     # a family's compiled kernel: its closed form, or the bracketing search of a spherical wrist on a general arm
-    use_closed = bool(fam.kernel) and method != "numeric" and not position_only
+    use_closed = bool(fam.kernel) and method != "numeric" and (not position_only
+                                                                or fam.kernel in ik_general.POSITION_KERNELS)
     poe = compile_model(model)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     N = targets.shape[0]
@@ -274,7 +283,9 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     for name, v in chain.locked.items():
         base_q[:, model.q_index[name]] = v
     if use_closed:
-        cand, counts = _closed_form_candidates(fam, T_root)
+        cand, counts = _closed_form_candidates(fam, T_root, position_only=position_only)
+        degenerate = np.flatnonzero(counts < 0)  # the general 6R elimination degenerates there: the search joins in
+        counts = np.maximum(counts, 0)
         steps, damped = (NEAR_STEPS if fam.near else POLISH_STEPS), False
     else:
         seeds = _search_seeds(model, chain, search_seeds)
@@ -329,6 +340,10 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     # the errors measured on these very rows (None: measured again in _pack, after any change of rows)
     errors = (p[keep], r[keep]) if len(Q) else None
     complete = np.ones(N, bool)
+    if use_closed and degenerate.size:
+        rows, owner = _join_search(model, link, T_root, degenerate, rows, owner, base_q, chain, tool, locked, mode,
+                                   position_tolerance, rotation_tolerance, search_seeds)
+        errors = None
     if use_closed and fam.near:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
         # lost by a singularity or the edge of the reach), the search joins in for that target
@@ -366,6 +381,24 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam,
                  "analytic" if use_closed and fam.closed_form else "search",
                  complete, position_only, errors)
+
+
+def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool, locked, mode, position_tolerance,
+                 rotation_tolerance, search_seeds):
+    """``rows``, ``owner`` with the multistart search's solutions of the ``targets`` (indices) merged in."""
+    N = len(T_root)
+    extra = all_solutions(model, link, T_root[targets], tool=tool, locked=locked, limits="ignore", method="numeric",
+                          mode=mode, position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
+                          search_seeds=search_seeds)
+    per = [rows[owner == n] for n in range(N)]
+    for i, n in enumerate(targets):
+        per[n] = np.concatenate([per[n], _with_free(base_q[n], chain, extra.q[i, :extra.count[i]])])
+    owner = np.concatenate([np.full(len(r), n, dtype=np.intp) for n, r in enumerate(per)]) if N else owner
+    rows = np.concatenate(per) if N else rows
+    starts = np.concatenate([[0], np.cumsum([len(r) for r in per])]).astype(np.intp)
+    keep = np.zeros(len(rows), bool)
+    ik_closed.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    return rows[keep], owner[keep]
 
 
 def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ from ..errors import KinematicsError, LockedJointError, did_you_mean
 from ..model.robot import RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
+from . import ik_general
 
 #: an exact family: axes parallel / meeting within these (radians, metres)
 EXACT_ANGLE, EXACT_DISTANCE = 1e-9, 1e-9
@@ -184,8 +185,11 @@ class Family:
     (the largest angle/distance from the exact family), ``ideal`` (the chain the closed form runs on),
     ``kernel`` and ``position`` (which compiled kernel), ``centre`` (the wrist centre of ``ideal``).
 
-    Chains of fewer than six joints are ``planar`` (every axis parallel: 2R, 3R, SCARA) or
-    ``short_chain``; like ``general`` 6R chains they are solved by the multistart search."""
+    Chains of fewer than six joints are ``planar`` (every axis parallel: 2R, 3R, SCARA; in closed
+    form for two or three revolute joints and at most one prismatic), ``rpr`` (closed form) or
+    ``short_chain`` (the multistart search); a 6R chain with none of the families above is
+    ``general_6r``, solved by the 16-degree elimination of :mod:`kinematics.algorithms.ik_general`
+    (``general``: a 6-joint chain with a prismatic joint and no family, the multistart search)."""
 
     name: str
     subproblems: tuple[int, ...]
@@ -285,11 +289,24 @@ def detect(ch: Chain) -> Family:
                 name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
                     else fam.name + "_reversed"
                 return replace(fam, name=name, chain=ch, reversed=True, near=near)
+    # ---- chains with no subproblem family: the closed forms and the elimination of ik_general
     if ch.n < 6 and ch.n > 0:
         # a short chain: planar when every axis is parallel to the first revolute one (2R, 3R, SCARA)
+        kernel = ik_general.short_kernel(ch)
+        if kernel == "rpr":
+            return Family("rpr", (1,), True, 1, ch, ch, kernel=kernel)
         rev = np.flatnonzero(ch.revolute)
         ref = ch.h[rev[0]] if rev.size else ch.h[0]
         if all(_angle(ref, h) < EXACT_ANGLE for h in ch.h):
-            return Family("planar", (), False, 2 if rev.size >= 2 else 1, ch)
+            return Family("planar", (3, 1) if kernel else (), bool(kernel), 2 if rev.size >= 2 else 1, ch,
+                          ch if kernel else None, kernel=kernel)
         return Family("short_chain", (), False, None, ch)
+    if ch.n == 6:
+        # every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem), on the
+        # chain or, where its geometry makes the elimination degenerate, on the reversed chain
+        if ik_general.usable(ch):
+            return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+        rch = ch.reversed()
+        if ik_general.usable(rch):
+            return Family("general_6r", (1,), True, 16, ch, rch, reversed=True, kernel="general_6r")
     return Family("general", (), False, 16 if ch.n == 6 else None, ch)
