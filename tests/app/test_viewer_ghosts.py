@@ -19,6 +19,9 @@ except ImportError:  # pragma: no cover - needs_browser skips the tests
 
 GHOSTS_SCREENSHOT = REPO / "docs" / "viewer_ik_ghosts.png"
 CALIBRATION_SCREENSHOT = REPO / "docs" / "viewer_calibration.png"
+#: a UR5 configuration whose pose has 8 solutions, some of them in self-collision (found by search
+#: with POST /ik and POST /collision; the test checks both properties against the service)
+UR5_Q_GHOSTS = [-2.45, -1.87, 2.36, -1.17, -1.18, 0.48]
 #: the path's second waypoint: the first one moved this far (metres, world frame)
 PATH_OFFSET = [0.0, -0.25, 0.1]
 #: a waypoint out of the UR5's reach (about 0.95 m)
@@ -57,10 +60,10 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     browser.find_element(By.CSS_SELECTOR, '#link-list option[value="tool0"]').click()
     _wait(browser, lambda d: _state(d)["selectedLink"] == "tool0", "tool0 selected")
     _enable_ik(browser)
-    ghosts = _ghosts_for(browser, UR5_Q_KNOWN)
+    ghosts = _ghosts_for(browser, UR5_Q_GHOSTS)
 
     # the same request to the service: the page draws exactly its solutions
-    position, quaternion = _target_of(UR5_Q_KNOWN)
+    position, quaternion = _target_of(UR5_Q_GHOSTS)
     seed = _js(browser, "window.viewerTest.sliderValues()")
     api = httpx.post(f"{server}/models/ur5/ik", json={
         "link": "tool0", "target": {"position": position, "quaternion": quaternion}, "solutions": "all",
@@ -75,6 +78,9 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     # ur5 has collision geometry: every ghost is checked, as POST /collision says
     colliding = httpx.post(f"{server}/models/ur5/collision", json={"q": [s["q"] for s in api["solutions"]]}).json()
     assert [s["colliding"] for s in ghosts["solutions"]] == colliding["colliding"]
+    assert 0 < sum(colliding["colliding"]) < api["count"]
+    assert [s["color"] for s in ghosts["solutions"]] == ["#d62728" if c else "#3b82f6" for c in colliding["colliding"]]
+    assert f"{sum(colliding['colliding'])} colliding" in browser.find_element(By.ID, "ghost-status").text
 
     # a real click on a ghost (a point where it is the first one hit) makes it the configuration
     current = np.asarray(_js(browser, "window.viewerTest.sliderValues()"))
@@ -93,6 +99,12 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     assert _state(browser)["lastQ"] == pytest.approx(q, abs=0)   # and drawn
     T = _ur5_fk(q)
     assert np.allclose(T[:3, 3], position, atol=1e-9)          # it still reaches the target
+    fits = _state(browser)["fits"]
+    browser.find_element(By.ID, "btn-fit").click()             # frames the ghosts too
+    _wait(browser, lambda d: _state(d)["fits"] > fits, "the fit")
+    projection = _js(browser, "window.viewerTest.projectLinks()")
+    assert all(0 <= x <= projection["width"] and 0 <= y <= projection["height"]
+               for x, y, _ in projection["points"].values())
     _frames_drawn(browser)
     ARTIFACTS.mkdir(exist_ok=True)
     shot = ARTIFACTS / "viewer_ik_ghosts.png"

@@ -116,6 +116,7 @@ async function sendGhosts() {
     disposeGhosts();
     $("ghost-list").replaceChildren();
     setGhostStatus("Every solution needs a pose target (Solve: pose).", "warn");
+    state.ghosts = { count: null, error: "position target", drawn: 0, solutions: [] };
     return;
   }
   const body = { link, target: ikTargetPose(), seed: currentQ(), solutions: "all", limits };
@@ -159,7 +160,10 @@ async function sendGhosts() {
     state.ghosts = {
       count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link,
       method: answer.method, colliding: checked ? colliding : null, chosen: -1,
-      solutions: solutions.map((s) => ({ q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding })),
+      solutions: solutions.map((s) => ({
+        q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding,
+        color: `#${ghostColor(s).toString(16).padStart(6, "0")}`,
+      })),
     };
   } catch (err) {
     if (stale()) return;
