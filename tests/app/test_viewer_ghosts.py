@@ -194,6 +194,20 @@ def test_the_calibration_tab_draws_a_bar_per_measurement(server, browser):
     after = [h for c, h in heights if c.startswith("bar-after")]
     assert min(before) > max(after) > 0
     assert "calibrated model" in browser.find_element(By.ID, "cal-summary").text
+
+    # the same measurements as CSV (sent as text/csv, the options as query parameters): the same answer
+    names = httpx.get(f"{server}/models/ur5").json()["joint_names"]
+    csv = "\n".join([",".join(names + ["x", "y", "z"])] + [
+        ",".join(str(v) for v in m["q"] + m["position"]) for m in example["measurements"]])
+    browser.execute_script("document.getElementById('cal-measurements').value = arguments[0]", csv)
+    browser.find_element(By.ID, "cal-run").click()
+    _wait(browser, lambda d: _state(d)["calResponses"] >= 2, "the CSV calibration answer")
+    again = _js(browser, "window.viewerState.calibration")
+    assert "error" not in again, again
+    assert again["bars_after"] == n and again["rmse_after"] == pytest.approx(cal["rmse_after"], rel=1e-9)
+    assert again["residuals"]["before"] == pytest.approx(cal["residuals"]["before"], rel=1e-9)
+
+    browser.find_element(By.ID, "btn-fit").click()             # the wider panel left the arm off-centre
     _frames_drawn(browser)
     ARTIFACTS.mkdir(exist_ok=True)
     shot = ARTIFACTS / "viewer_calibration.png"
