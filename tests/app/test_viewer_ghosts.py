@@ -64,7 +64,7 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
 
     # the same request to the service: the page draws exactly its solutions
     position, quaternion = _target_of(UR5_Q_GHOSTS)
-    seed = _js(browser, "window.viewerTest.sliderValues()")
+    seed = ghosts["seed"]                                      # the joint values when the page asked
     api = httpx.post(f"{server}/models/ur5/ik", json={
         "link": "tool0", "target": {"position": position, "quaternion": quaternion}, "solutions": "all",
         "limits": "ignore", "seed": seed}).json()

@@ -158,7 +158,7 @@ async function sendGhosts() {
     setGhostStatus(`${n} solution${n === 1 ? "" : "s"}${more}${familyText(family)}`
       + (checked ? ` · ${colliding} colliding` : ""), n ? "" : "warn");
     state.ghosts = {
-      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link,
+      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed: body.seed,
       method: answer.method, colliding: checked ? colliding : null, chosen: -1,
       solutions: solutions.map((s) => ({
         q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding,
