@@ -214,3 +214,34 @@ def test_the_calibration_tab_draws_a_bar_per_measurement(server, browser):
     browser.save_screenshot(str(shot))
     CALIBRATION_SCREENSHOT.write_bytes(shot.read_bytes())
     assert _severe_console(browser) == []
+
+
+@needs_browser
+def test_a_redundant_arm_gets_its_ghosts_with_a_joint_locked(server, browser):
+    _open(browser, f"{server}/viewer/panda")
+    link = "panda_hand_tcp"                                    # joints 1-7 (the default leaf is a finger)
+    browser.find_element(By.CSS_SELECTOR, f'#link-list option[value="{link}"]').click()
+    _wait(browser, lambda d: _state(d)["selectedLink"] == link, f"{link} selected")
+    _enable_ik(browser)
+    # 7 free joints: infinitely many solutions, said in the status line (no banner, no ghosts)
+    _wait(browser, lambda d: (_js(d, "window.viewerState.ghosts") or {}).get("error") and not _state(d)["ghostBusy"],
+          "the refusal of every solution")
+    assert "lock" in browser.find_element(By.ID, "ghost-status").text
+    assert _js(browser, "document.querySelectorAll('#ghost-list button').length") == 0
+    assert _state(browser)["lastError"] is None
+
+    from selenium.webdriver.support.ui import Select
+
+    Select(browser.find_element(By.ID, "ghost-locked")).select_by_value("panda_joint7")
+    _wait(browser, lambda d: ((_js(d, "window.viewerState.ghosts") or {}).get("locked") or {}).get("panda_joint7")
+          is not None and not _state(d)["ghostBusy"], "the ghosts with panda_joint7 locked")
+    ghosts = _js(browser, "window.viewerState.ghosts")
+    target = _js(browser, "window.viewerTest.targetPose()")
+    api = httpx.post(f"{server}/models/panda/ik", json={
+        "link": link, "target": target, "solutions": "all", "limits": "ignore", "seed": ghosts["seed"],
+        "locked": ghosts["locked"]}).json()
+    assert ghosts["count"] == api["count"] > 0
+    assert ghosts["family"] == api["family"]
+    assert np.allclose([s["q"] for s in ghosts["solutions"]], [s["q"] for s in api["solutions"]], atol=1e-12)
+    # the browser logs the refused request itself (a 422 of /ik), and nothing else
+    assert [m for m in _severe_console(browser) if not ("/models/panda/ik " in m and "422" in m)] == []

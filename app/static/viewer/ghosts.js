@@ -78,10 +78,28 @@ export function requestGhosts() {
   updateBusy();
 }
 
-async function familyOf(id, link) {
-  const key = `${id}|${link}`;
+/** The Lock picker lists the model's joints (filled when the model changes). */
+function ensureLockOptions() {
+  const select = $("ghost-locked");
+  if (select.dataset.model === model.id) return;
+  select.replaceChildren(new Option("none", ""));
+  for (const name of model.joint_names) select.appendChild(new Option(name, name));
+  select.dataset.model = model.id;
+}
+
+/** `{joint: value}` of the Lock picker, the joint held at its current value, or null. */
+function lockedJoints() {
+  const name = $("ghost-locked").value;
+  const slider = sliders.find((s) => s.name === name);
+  return slider ? { [name]: slider.value } : null;
+}
+
+async function familyOf(id, link, locked) {
+  const lock = locked ? Object.entries(locked).map(([k, v]) => `${k}:${v}`)[0] : "";
+  const key = `${id}|${link}|${lock}`;
   if (!ghosts.family.has(key)) {
-    ghosts.family.set(key, await api(`/models/${encodeURIComponent(id)}/ik/family?link=${encodeURIComponent(link)}`));
+    const query = `link=${encodeURIComponent(link)}${lock ? `&locked=${encodeURIComponent(lock)}` : ""}`;
+    ghosts.family.set(key, await api(`/models/${encodeURIComponent(id)}/ik/family?${query}`));
   }
   return ghosts.family.get(key);
 }
@@ -119,7 +137,10 @@ async function sendGhosts() {
     state.ghosts = { count: null, error: "position target", drawn: 0, solutions: [] };
     return;
   }
+  ensureLockOptions();
+  const locked = lockedJoints();
   const body = { link, target: ikTargetPose(), seed: currentQ(), solutions: "all", limits };
+  if (locked) body.locked = locked;
   ghosts.inFlight += 1;
   state.ghostRequests += 1;
   updateBusy();
@@ -127,7 +148,7 @@ async function sendGhosts() {
   try {
     const [answer, family] = await Promise.all([
       api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body }),
-      familyOf(id, link).catch(() => null),
+      familyOf(id, link, locked).catch(() => null),
     ]);
     if (stale()) return;
     const solutions = answer.solutions.map((s) => ({ ...s, colliding: null }));
@@ -159,6 +180,7 @@ async function sendGhosts() {
       + (checked ? ` · ${colliding} colliding` : ""), n ? "" : "warn");
     state.ghosts = {
       count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed: body.seed,
+      locked: locked || {},
       method: answer.method, colliding: checked ? colliding : null, chosen: -1,
       solutions: solutions.map((s) => ({
         q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding,
@@ -342,3 +364,4 @@ renderer.domElement.addEventListener("pointerup", (e) => {
 
 $("ghost-enable").addEventListener("change", () => requestGhosts());
 $("ghost-limits").addEventListener("change", () => requestGhosts());
+$("ghost-locked").addEventListener("change", () => requestGhosts());
