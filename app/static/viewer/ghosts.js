@@ -98,6 +98,7 @@ async function familyOf(id, link, locked) {
   const lock = locked ? Object.entries(locked).map(([k, v]) => `${k}:${v}`)[0] : "";
   const key = `${id}|${link}|${lock}`;
   if (!ghosts.family.has(key)) {
+    if (ghosts.family.size > 64) ghosts.family.clear();   // a locked joint's value is part of the key
     const query = `link=${encodeURIComponent(link)}${lock ? `&locked=${encodeURIComponent(lock)}` : ""}`;
     ghosts.family.set(key, await api(`/models/${encodeURIComponent(id)}/ik/family?${query}`));
   }
