@@ -134,7 +134,8 @@ def test_a_path_is_planned_played_to_its_end_and_its_stop_is_marked(server, brow
           and not _js(d, "window.viewerState.path.playing") and _state(d)["pathResponses"] >= 1, "the planned path")
 
     waypoints = [{"position": p, "quaternion": quaternion} for p in (start, end)]
-    api = httpx.post(f"{server}/models/ur5/ik/path", json={"link": "tool0", "waypoints": waypoints, "seed": seed}).json()
+    api = httpx.post(f"{server}/models/ur5/ik/path",
+                     json={"link": "tool0", "waypoints": waypoints, "seed": seed}).json()
     path = _js(browser, "window.viewerState.path")
     assert api["complete"] and path["complete"]
     assert path["rows"] == len(api["q"]) > 2
