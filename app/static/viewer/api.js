@@ -12,7 +12,8 @@ export class ApiError extends Error {
   }
 }
 
-export async function api(path, { method = "GET", body, text = false, binary = null } = {}) {
+/** `body`: sent as JSON; `raw` with `contentType`: sent as it is (e.g. a CSV text). */
+export async function api(path, { method = "GET", body, raw, contentType = "text/plain", text = false, binary = null } = {}) {
   const init = { method, headers: {} };
   if (binary) init.headers.Accept = binary;
   const key = sessionStorage.getItem(API_KEY_STORAGE);
@@ -20,6 +21,9 @@ export async function api(path, { method = "GET", body, text = false, binary = n
   if (body !== undefined) {
     init.headers["Content-Type"] = "application/json";
     init.body = JSON.stringify(body);
+  } else if (raw !== undefined) {
+    init.headers["Content-Type"] = contentType;
+    init.body = raw;
   }
   let response;
   try {

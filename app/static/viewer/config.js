@@ -19,6 +19,11 @@ export const API_KEY_STORAGE = "kinematics-api-key";  // sessionStorage: forgott
 export const IK_THROTTLE_MS = 100;               // while dragging: at most one IK request per this, one in flight
 export const IK_DRAG_RESTARTS = 0;               // while dragging: follow from the current q only (smooth, fast)
 export const IK_TARGET_OPACITY = 0.45;           // the target's ghost triad
+export const GHOST_DEBOUNCE_MS = 150;           // every-solution request: this long after the target's last move (latest wins)
+export const GHOST_MAX_DRAWN = 64;               // ghosts drawn at most (the list holds every solution)
+export const GHOST_OPACITY = 0.3;                // a ghost arm; the one the robot is in is fainter
+export const GHOST_COLORS = { free: 0x3b82f6, colliding: 0xd62728, unknown: 0x7c8aa5 };
+export const PATH_FRAME_MS = 40;                 // path playback: one row per this
 export const FIT_DIRECTION = [1.0, -1.3, 0.8];   // the view direction (from the model) of a freshly loaded model
 export const FIT_MARGIN = 1.15;                  // the bounding sphere fills 1 / FIT_MARGIN of the narrower field of view
 export const CLOUD_POINT_FRACTION = 0.02;        // workspace point size / model size
@@ -53,6 +58,16 @@ export const state = {
   ikBusy: false,      // a request in flight, or a target change not sent yet
   ikLast: null,       // {link, mode, target, seed, q, success, position_error, rotation_error, iterations}
   ikStatus: "",
+  ghosts: null,       // {count, drawn, family, limits, solutions: [{q, within_limits, singular, colliding}], chosen}
+  ghostRequests: 0,
+  ghostResponses: 0,
+  ghostBusy: false,
+  path: null,         // {rows, targets, row, playing, complete, fraction, stopped, waypoints}
+  pathRequests: 0,
+  pathResponses: 0,
+  calibration: null,  // {model, measurements, bars, rmse_before, rmse_after, holdout, outliers}
+  calRequests: 0,
+  calResponses: 0,
   cfRequests: 0,
   cfResponses: 0,
   closedForm: null,   // {tip, ok, katex (elements typeset), items, status}

@@ -5,6 +5,8 @@ import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, IK_DRAG_RESTARTS, IK_TARGET_OPACITY, IK_THROTTLE_MS, SELECTED_TRIAD_SCALE, TRIAD_FRACTION, state } from "./config.js";
 import { currentQ, fitCamera, fkInFlight, fkPending, lastPoses, loadToken, model, modelSize, setAll, sliders } from "./robot.js";
+import { chooseGhost, clearGhosts, ghostPoints, ghostsBusy, requestGhosts } from "./ghosts.js";
+import { pathBusy, pathTest } from "./path.js";
 import { COLORS, camera, controls, gizmo, makeTriad, matrixFromRows, renderer, requestRender, scene, unitArrowGeometry } from "./scene.js";
 import { qdotInputs, requestVelocity, velocityInFlight, velocityPending } from "./velocity.js";
 import { sampleWorkspace } from "./workspace.js";
@@ -73,6 +75,7 @@ export function placeTargetAtLink() {
   ikTarget.scale.set(1, 1, 1);
   ikTarget.updateMatrixWorld(true);
   requestRender();
+  requestGhosts();                       // every solution of the target where it is now
   return true;
 }
 
@@ -120,6 +123,7 @@ export function setIkEnabled(on) {
     gizmo.detach();
     controls.enabled = true;
     ikTarget.visible = false;
+    clearGhosts();
     ik.seq += 1;
     ik.dirty = false;
     clearTimeout(ik.timer);
@@ -136,6 +140,7 @@ export function requestIk({ final = false } = {}) {
   ik.dirty = true;
   ik.final = ik.final || final;
   pumpIk();
+  requestGhosts();                       // debounced: once the target rests
 }
 
 export function pumpIk() {
@@ -212,7 +217,7 @@ $("ik-reset").addEventListener("click", () => { if (ik.enabled) resetIkTarget();
 
 // Test hook for the IK target (tests/app/test_viewer.py); also handy from the browser console.
 export function settled() {
-  return !ikBusy() && !fkInFlight && !fkPending;
+  return !ikBusy() && !ghostsBusy() && !pathBusy() && !fkInFlight && !fkPending;
 }
 
 export async function whenSettled() {
@@ -235,6 +240,13 @@ window.viewerTest = {
     return { q: currentQ(), status: state.ikStatus, last: state.ikLast };
   },
   whenSettled: async () => { await whenSettled(); return true; },
+  /** Every solution of the target (as drawn): window.viewerState.ghosts once settled. */
+  ghosts: () => state.ghosts,
+  /** Make solution `index` the configuration, as a click on its ghost does; resolves when drawn. */
+  async chooseGhost(index) { chooseGhost(index); await whenSettled(); return currentQ(); },
+  /** Client (CSS pixel) points on ghost `index` where a click hits it first. */
+  ghostPoints: (index) => ghostPoints(index),
+  ...pathTest,
   /** Canvas (CSS pixel) coordinates of every link origin as the camera sees it now, and the
    * canvas size: {width, height, points: {link: [x, y, depth]}} (depth in (-1, 1) when between
    * the near and far planes). */

@@ -5,6 +5,7 @@ import { api, clearError, showError } from "./api.js";
 import { fillClosedFormTips } from "./closed-forms.js";
 import { $, API_KEY_STORAGE, FIT_DIRECTION, FK_LINKS_ALL, ROOT, state } from "./config.js";
 import { ik, resetIkTarget } from "./ik.js";
+import { clearPath } from "./path.js";
 import { applyPoses, buildRobot, buildSliders, fitCamera, highlightSelected, initialValue, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
 import { requestRender, resize } from "./scene.js";
 import { buildQdotInputs } from "./velocity.js";
@@ -106,6 +107,7 @@ export async function loadModel(id, { push = true } = {}) {
     resize();
     fitCamera(FIT_DIRECTION);
     clearWorkspace();
+    clearPath();
     buildQdotInputs(info);
     showOutOfLimits(fk.out_of_limits || []);
     $("model-picker").value = model.id;

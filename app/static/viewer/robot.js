@@ -4,6 +4,7 @@
 import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, VISUAL_OPACITY, state } from "./config.js";
+import { ghostRoot } from "./ghosts.js";
 import { ik, ikBusy, placeTargetAtLink } from "./ik.js";
 import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry, visualObject } from "./scene.js";
 import { requestVelocity } from "./velocity.js";
@@ -126,7 +127,7 @@ export function buildRobot(info, visuals, poses) {
 }
 
 /** The bounding sphere of the model at its current pose: every link origin and every drawn
- * primitive visual (and the workspace cloud while it is shown). */
+ * primitive visual (and the workspace cloud and the IK ghosts while they are shown). */
 export function modelSphere() {
   const box = new THREE.Box3();
   if (lastPoses) for (const pose of Object.values(lastPoses)) box.expandByPoint(new THREE.Vector3(...pose.position));
@@ -139,6 +140,10 @@ export function modelSphere() {
   if (cloud && cloud.visible) {
     cloud.geometry.computeBoundingBox();
     box.union(cloud.geometry.boundingBox);
+  }
+  if (ghostRoot.children.length) {         // the IK target's every-solution ghosts (ghosts.js)
+    ghostRoot.updateMatrixWorld(true);
+    box.expandByObject(ghostRoot);
   }
   const sphere = new THREE.Sphere();
   if (box.isEmpty()) return new THREE.Sphere(new THREE.Vector3(), 0.5);

@@ -12,10 +12,12 @@
 // which is what the IK target gizmo sends to POST /models/{id}/ik.
 //
 // The viewer is ES modules (no build step, relative imports): config.js, api.js, scene.js,
-// robot.js, ik.js, workspace.js, velocity.js, closed-forms.js, dh-editor.js, loader.js; this
-// one, the entry point, wires the tabs and starts.
+// robot.js, ik.js (with ghosts.js, every IK solution, and path.js, Cartesian paths), workspace.js,
+// velocity.js, closed-forms.js, dh-editor.js, loader.js, calibration.js; this one, the entry
+// point, wires the tabs and starts.
 
 import { ApiError, showError } from "./api.js";
+import "./calibration.js";
 import { $, ROOT } from "./config.js";
 import { DH_EXAMPLE, addDhRow } from "./dh-editor.js";
 import { loadCatalogue, loadModel } from "./loader.js";
@@ -26,7 +28,7 @@ for (const button of document.querySelectorAll(".tabs button")) {
   button.addEventListener("click", () => {
     for (const b of document.querySelectorAll(".tabs button")) b.classList.toggle("active", b === button);
     for (const tab of document.querySelectorAll(".tab")) tab.hidden = tab.id !== `tab-${button.dataset.tab}`;
-    $("left").classList.toggle("wide", button.dataset.tab === "closed");
+    $("left").classList.toggle("wide", button.dataset.tab === "closed" || button.dataset.tab === "calibration");
     resize();
   });
 }
