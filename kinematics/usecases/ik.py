@@ -192,9 +192,10 @@ def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, 
                 sol, _ = free_solutions(sol, free_of)
                 has = np.flatnonzero(sol.count > 0)
                 hit = todo[has]
-                q[hit] = sol.q[has, 0]
-                position[hit], rotation[hit] = sol.position_error[has, 0], sol.rotation_error[has, 0]
-                success[hit], free[hit] = sol.within_limits[has, 0], True
+                if has.size:
+                    q[hit] = sol.q[has, 0]
+                    position[hit], rotation[hit] = sol.position_error[has, 0], sol.rotation_error[has, 0]
+                    success[hit], free[hit] = sol.within_limits[has, 0], True
         except KinematicsError:  # no full set for this chain (position mode on six joints, a redundant chain)
             pass
     # what is answered: a colliding answer (the best found) is no success

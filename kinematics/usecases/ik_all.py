@@ -108,7 +108,9 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     ``avoid_collisions``: only the solutions free of self-collision are listed (the enabled pairs of
     the model's allowed-collision matrix from ``collision_samples`` configurations, kept in
     ``cache_dir``; :func:`kinematics.usecases.collision.collision_filter`, which refuses a model
-    without collision geometry); the answer's ``colliding`` counts those left out."""
+    without collision geometry); the answer's ``colliding`` counts those left out. Joints off the
+    chain (a gripper's fingers) take the seed's values, without a seed the middle of their limits
+    (numerical IK's default seed; without ``avoid_collisions``: 0), since they collide too."""
     query = Query.of(query, **options)
     if query.floating_base:
         raise KinematicsError("floating_base: every IK solution needs a fixed base (give the base pose as base)")
@@ -136,6 +138,8 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
                                 rotation_tolerance=rotation_tolerance)
     colliding = None
     if free is not None:
+        if seeds is None:  # joints off the chain (a gripper) at the middle of their limits, not at 0
+            sol = _off_chain_at_middle(model, link, locked, T_tool, sol)
         sol, colliding = free_solutions(sol, free)
     if one:  # (link, targets, is_batch, the IKSolution) for kinematics.usecases.ik.ik to answer
         return link, T, is_batch, _nearest(model, link, T, B, T_tool, sol, seeds, mode, position_tolerance,
@@ -155,6 +159,25 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     return IKAllAnswer(model, link, mode, is_batch, T, sol.family.name, sol.method, sol.q, sol.count, sol.within_limits,
                        sol.singular, sol.position_error, sol.rotation_error, sol.complete,
                        dict(sol.family.chain.locked), verification, colliding)
+
+
+def _off_chain_at_middle(model: RobotModel, link: str, locked, T_tool, sol):
+    """``sol`` with the joints off the chain to ``link`` (neither moved nor locked) at the middle of
+    their limits, the default seed of numerical IK; ``within_limits`` measured again."""
+    import dataclasses
+
+    from ..tolerances import LIMIT_TOLERANCE
+
+    chain = reduce_chain(model, link, locked, T_tool)
+    held = set(chain.columns.tolist()) | {model.q_index[name] for name in chain.locked}
+    off = np.array([c for c in range(model.dof) if c not in held], dtype=np.intp)
+    if off.size == 0:
+        return sol
+    listed = np.arange(sol.q.shape[1])[None, :] < sol.count[:, None]
+    q = sol.q.copy()
+    q[..., off] = np.where(listed[..., None], _ik.middle_of_limits(model)[off], np.nan)
+    inside = np.all((q >= model.lower_limits - LIMIT_TOLERANCE) & (q <= model.upper_limits + LIMIT_TOLERANCE), axis=2)
+    return dataclasses.replace(sol, q=q, within_limits=inside & listed)
 
 
 def _nearest(model, link, T, B, T_tool, sol, seeds, mode, position_tolerance, rotation_tolerance, max_iterations,
