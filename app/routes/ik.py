@@ -92,7 +92,10 @@ async def inverse_kinematics(model_id: ModelId, req: Annotated[IKRequest, Depend
     unreachable target answers 200 with the best `q` found and `success: false`. Work
     (targets x (restarts + 1) x max_iterations) is bounded by the `max_ik_work` setting (413).
     With `point` ([x, y, z] in the link frame) or `tool` (a pose `T_link_tool`) the targets are
-    poses of that frame (a TCP without a URDF edit).
+    poses of that frame (a TCP without a URDF edit). With `avoid_collisions` only answers free of
+    self-collision: `solutions: "all"` leaves the colliding ones out (`colliding` counts them),
+    `"one"` searches on and claims `success` only for a free answer (`collision_free`); a model
+    without collision geometry is a 422.
     """
     steps = (req.restarts + 1) * req.max_iterations
     # collision checks (and a first request's allowed-collision matrix) run as heavy work

@@ -112,7 +112,8 @@ def collision_filter(model: RobotModel, field: str, *, samples: int = DEFAULT_SA
 
     if model.multi_dof:
         raise CollisionError(f"{field}: self-collision is checked on models with one-dof joints only "
-                             f"(model {model.name!r} has floating or planar joints; give floating_base as base)")
+                             f"(model {model.name!r} has floating or planar joints; without floating_base, give the base pose "
+                             "as base)")
     cm = _sc.geometry(model)
     if not cm.links:
         left_out = f" ({'; '.join(cm.warnings)})" if cm.warnings else ""
