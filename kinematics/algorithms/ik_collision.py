@@ -40,14 +40,23 @@ def self_collision_filter(model: RobotModel, *, samples: int = DEFAULT_SAMPLES, 
                           cache_dir: os.PathLike | str | None = None) -> Filter:
     """``free(Q)`` (R, dof) -> (R,) bool: free of self-collision on the enabled pairs of the model's
     allowed-collision matrix (``samples`` configurations, kept in ``cache_dir``); closer than
-    ``margin`` (m) counts as colliding."""
+    ``margin`` (m) counts as colliding. Configurations that differ by whole turns of revolute joints
+    (the ``q + 2πk`` copies of an IK branch) are one pose of the arm: each is checked once."""
     from . import self_collision as _sc
+
+    angular = np.asarray(model.angular, dtype=bool)
 
     def free(Q: np.ndarray) -> np.ndarray:
         Q = np.asarray(Q, dtype=float).reshape(-1, model.dof)
         if len(Q) == 0:
             return np.zeros(0, bool)
-        return _sc.collision_free(model, Q, margin=margin, samples=samples, cache_dir=cache_dir)
+        W = Q.copy()
+        W[:, angular] = np.mod(W[:, angular] + np.pi, 2 * np.pi)
+        keys = np.round(W, 9)
+        keys[:, angular] = np.mod(keys[:, angular], np.round(2 * np.pi, 9))  # 0 and 2π the same
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        return _sc.collision_free(model, Q[first], margin=margin, samples=samples,
+                                  cache_dir=cache_dir)[inverse.reshape(-1)]
 
     return free
 

@@ -70,10 +70,10 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
     allowed-collision matrix from ``collision_samples`` configurations, kept in ``cache_dir``; a
     model without collision geometry is a :class:`~kinematics.errors.CollisionError`). With
     ``solutions="all"`` the colliding solutions are left out (counted in ``colliding``); with
-    ``"one"`` the search goes on where the answer collides -- up to :data:`COLLISION_ROUNDS`
-    rounds of fresh seeds within the limits, each with its restarts, then, for a chain with a
-    closed form, the solution nearest the seed among the free ones of the full set -- and
-    ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
+    ``"one"`` the search goes on where the answer collides -- for a chain with a closed form, the
+    solution nearest the seed among the free ones of the full set; otherwise up to
+    :data:`COLLISION_ROUNDS` rounds of fresh seeds within the limits, each with its restarts --
+    and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
     """
     if solutions not in SOLUTIONS:
         raise KinematicsError(f"solutions: {solutions!r} is not one of {', '.join(SOLUTIONS)}")
@@ -146,58 +146,60 @@ def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, 
                  random_seed: int) -> tuple[IKSolution, np.ndarray]:
     """Numerical IK that goes on where an answer collides: ``(the solution, collision_free (N,))``.
 
-    Targets whose answer succeeded but is in self-collision get up to :data:`COLLISION_ROUNDS` more
-    rounds of the numerical solver, each from a fresh seed drawn within the limits (seeded by
-    ``random_seed``) with its own restarts; those still colliding then take, where the chain has a
-    closed form, the free solution of the full set nearest the seed. ``success`` is true only for
-    an answer that meets the tolerances, the limits and is free."""
+    Targets whose answer succeeded but is in self-collision take, where the chain has a closed form,
+    the free solution of the full set (limits respected) nearest the seed -- the set is complete,
+    so a target without one has no free solution inside the limits; on other chains they get up
+    to :data:`COLLISION_ROUNDS` more rounds of the numerical solver, each from a fresh seed drawn
+    within the limits (seeded by ``random_seed``) with its own restarts. ``success`` is true only
+    for an answer that meets the tolerances, the limits and is free."""
     N = len(T)
     q, position, rotation = solution.q.copy(), solution.position_error.copy(), solution.rotation_error.copy()
     success, iterations = solution.success.copy(), solution.iterations.copy()
     free = np.zeros(N, bool)
     if success.any():
         free[success] = free_of(q[success])
-    start = middle_of_limits(model)[None] if seeds is None else seeds
-    lo = np.where(np.isfinite(model.lower_limits), model.lower_limits, -np.pi)
-    hi = np.where(np.isfinite(model.upper_limits), model.upper_limits, np.pi)
-    rng = np.random.default_rng([int(random_seed) & 0xFFFFFFFF, 0xC0111DE])
+    start = np.broadcast_to(middle_of_limits(model)[None] if seeds is None else seeds, (N, model.dof))
     B_all = None if B is None else np.broadcast_to(B, (N, 4, 4))
     todo = np.flatnonzero(success & ~free)  # an unreachable target stays what its restarts found
-    for r in range(COLLISION_ROUNDS):
-        if todo.size == 0:
-            break
-        S = np.array(np.broadcast_to(start, (N, model.dof))[todo])
-        S[:] = rng.uniform(lo, hi, S.shape)
-        again = inverse_kinematics(model, link, T[todo], S, base=None if B_all is None else B_all[todo], mode=mode,
-                                   position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
-                                   max_iterations=max_iterations, restarts=restarts, random_seed=random_seed + 1 + r,
-                                   tool=T_tool)
-        iterations[todo] += again.iterations
-        got = np.flatnonzero(again.success)
-        ok = np.zeros(len(todo), bool)
-        if got.size:
-            ok[got] = free_of(again.q[got])
-        hit = todo[ok]
-        q[hit], position[hit], rotation[hit] = again.q[ok], again.position_error[ok], again.rotation_error[ok]
-        success[hit], free[hit] = True, True
-        todo = todo[~ok]
+    full_set = False
     if todo.size and not model.multi_dof:
         try:
-            closed = detect(reduce_chain(model, link, None, T_tool)).closed_form
-            if closed:
+            if detect(reduce_chain(model, link, None, T_tool)).closed_form:
                 sol = _ik_all.all_solutions(model, link, T[todo], base=None if B_all is None else B_all[todo],
-                                            tool=T_tool, seed=np.broadcast_to(start, (N, model.dof))[todo],
-                                            mode=mode, position_tolerance=position_tolerance,
+                                            tool=T_tool, seed=start[todo], mode=mode,
+                                            position_tolerance=position_tolerance,
                                             rotation_tolerance=rotation_tolerance)
                 sol, _ = free_solutions(sol, free_of)
                 has = np.flatnonzero(sol.count > 0)
-                hit = todo[has]
                 if has.size:
+                    hit = todo[has]
                     q[hit] = sol.q[has, 0]
                     position[hit], rotation[hit] = sol.position_error[has, 0], sol.rotation_error[has, 0]
                     success[hit], free[hit] = sol.within_limits[has, 0], True
+                full_set = True
         except KinematicsError:  # no full set for this chain (position mode on six joints, a redundant chain)
             pass
+    if not full_set:
+        lo = np.where(np.isfinite(model.lower_limits), model.lower_limits, -np.pi)
+        hi = np.where(np.isfinite(model.upper_limits), model.upper_limits, np.pi)
+        rng = np.random.default_rng([int(random_seed) & 0xFFFFFFFF, 0xC0111DE])
+        for r in range(COLLISION_ROUNDS):
+            if todo.size == 0:
+                break
+            S = rng.uniform(lo, hi, (len(todo), model.dof))
+            again = inverse_kinematics(model, link, T[todo], S, base=None if B_all is None else B_all[todo],
+                                       mode=mode, position_tolerance=position_tolerance,
+                                       rotation_tolerance=rotation_tolerance, max_iterations=max_iterations,
+                                       restarts=restarts, random_seed=random_seed + 1 + r, tool=T_tool)
+            iterations[todo] += again.iterations
+            got = np.flatnonzero(again.success)
+            ok = np.zeros(len(todo), bool)
+            if got.size:
+                ok[got] = free_of(again.q[got])
+            hit = todo[ok]
+            q[hit], position[hit], rotation[hit] = again.q[ok], again.position_error[ok], again.rotation_error[ok]
+            success[hit], free[hit] = True, True
+            todo = todo[~ok]
     # what is answered: a colliding answer (the best found) is no success
     still = np.flatnonzero(~free)
     if still.size:
