@@ -190,3 +190,24 @@ def test_a_calibrated_ur5_gets_every_solution(calibrated_ur5):
     search = usecases.ik(model, T[pick], link="tool0", solutions="all", limits="ignore", method="numeric")
     closed = usecases.ik(model, T[pick], link="tool0", solutions="all", limits="ignore")
     assert np.all(closed.count >= search.count) and closed.count.min() > 0
+
+
+def test_one_solution_on_a_chain_without_closed_form_takes_fresh_seeds(catalogue):
+    """The 7-joint Panda (nothing locked: no full set to fall back on): targets whose plain answer
+    collides are searched again from fresh seeds; every success is free for Pinocchio and on target."""
+    model = catalogue.get("panda")
+    Q = model.sample_configurations(40, np.random.default_rng(8))
+    T = compile_model(model).fk(Q, ["panda_hand"])[:, 0]
+    plain = usecases.ik(model, T, link="panda_hand")
+    hit = usecases.collision_free(model, plain.solution.q, samples=SAMPLES)
+    colliding = np.flatnonzero(plain.solution.success & ~hit)
+    assert colliding.size, "no target's plain answer collides in this sample"
+    a = usecases.ik(model, T[colliding], link="panda_hand", avoid_collisions=True, collision_samples=SAMPLES,
+                    verify=True)
+    assert a.solution.success.any()
+    pc = _pinocchio(model)
+    for n in np.flatnonzero(a.solution.success):
+        assert a.collision_free[n] and pc.collisions(a.solution.q[n]) == []
+        assert a.verification["position_error"][n] < 1e-6 and a.verification["rotation_error"][n] < 1e-6
+    assert np.array_equal(a.collision_free[~a.solution.success],
+                          usecases.collision_free(model, a.solution.q[~a.solution.success], samples=SAMPLES))
