@@ -8,6 +8,7 @@ import pytest
 
 from kinematics import usecases
 from kinematics.algorithms import self_collision
+from kinematics.algorithms.ik import middle_of_limits
 from kinematics.algorithms.workspace import sampling_bounds
 from kinematics.engine.poe import compile_model
 from kinematics.errors import CollisionError
@@ -51,7 +52,10 @@ def test_collision_free_solutions_are_free_for_pinocchio_and_the_rest_collide(ca
     free = usecases.ik(model, T, link=link, solutions="all", locked=locked, limits="ignore", avoid_collisions=True,
                        collision_samples=SAMPLES, verify=True)
     assert free.verification["max_position_error"] < 1e-9 and free.verification["max_rotation_error"] < 1e-9
-    mid = usecases.ik_all.__globals__["_ik"].middle_of_limits(model)
+    mid = middle_of_limits(model)
+    poe = compile_model(model)
+    on_path = set(poe.kernel.path_columns(int(poe.link_indices([link])[0])).tolist())
+    off = [c for c in range(model.dof) if c not in on_path]
     for n in range(len(T)):
         listed = free.q[n, :free.count[n]]
         assert 0 < free.count[n] < every.count[n] and free.count[n] + free.colliding[n] == every.count[n]
@@ -60,8 +64,6 @@ def test_collision_free_solutions_are_free_for_pinocchio_and_the_rest_collide(ca
         # every solution of the full set that is not listed collides, for Pinocchio
         for q in every.q[n, :every.count[n]]:
             q = q.copy()
-            off = [c for c in range(model.dof) if c not in compile_model(model).kernel.path_columns(
-                int(compile_model(model).link_indices([link])[0]))]
             q[off] = mid[off]  # off the chain: the middle of the limits, as the filtered answer holds them
             for name, v in (locked or {}).items():
                 q[model.q_index[name]] = v
@@ -131,7 +133,7 @@ def test_a_collision_free_workspace_drops_exactly_the_colliding_samples(catalogu
     poe = compile_model(model)
     cols = poe.kernel.path_columns(int(poe.link_indices([link])[0]))
     lo, hi = sampling_bounds(model, cols)
-    Q = np.tile(usecases.ik_all.__globals__["_ik"].middle_of_limits(model), (n, 1))
+    Q = np.tile(middle_of_limits(model), (n, 1))
     Q[:, cols] = np.random.default_rng(3).uniform(lo, hi, (n, len(cols)))
     pc = _pinocchio(model)
     theirs = np.array([pc.collisions(q) == [] for q in Q])
