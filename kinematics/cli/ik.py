@@ -165,6 +165,10 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     if out_fmt not in ("csv", "jsonl"):
         return _fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
     api.ik_family(model, link=link, locked=locked)  # a bad --locked fails before any output
+    if args.avoid_collisions:  # a model without collision geometry fails before any output too
+        from ..usecases.collision import collision_filter
+
+        collision_filter(model, "avoid_collisions", samples=args.collision_samples)
     names = list(model.joint_names)
     total = unsolved = rows = colliding = 0
     family = method = "?"

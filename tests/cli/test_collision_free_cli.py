@@ -54,3 +54,12 @@ def test_ik_path_avoid_collisions_and_workspace_collision_free(tmp_path, capsys)
     assert "in self-collision dropped" in text
     code, _, err = run(["workspace", "--model", "puma560_standard", "-n", "100", "--collision-free"], capsys)
     assert code == 2 and "no collision geometry" in err
+
+
+def test_a_model_without_collision_geometry_fails_before_any_output(tmp_path, capsys):
+    puma = default_catalogue().get("puma560_standard")
+    np.save(tmp_path / "T.npy", compile_model(puma).fk(np.zeros((1, puma.dof)), ["tool"])[:, 0])
+    for extra in (["--all"], []):
+        code, out, err = run(["ik", "--model", "puma560_standard", *extra, "--avoid-collisions", tmp_path / "T.npy"],
+                             capsys)
+        assert code == 2 and out == "" and "no collision geometry" in err
