@@ -239,12 +239,16 @@ class Client:
     def ik(self, model_id: str, target, link: str | None = None, *, mode: str = "pose",
            position_tolerance: float | None = None, rotation_tolerance: float | None = None,
            max_iterations: int | None = None, restarts: int | None = None, random_seed: int | None = None,
-           verify: bool = False, floating_base: bool = False) -> dict[str, np.ndarray]:
+           verify: bool = False, floating_base: bool = False,
+           avoid_collisions: bool = False) -> dict[str, np.ndarray]:
         """Joint values putting ``link`` at ``target`` ((N, 4, 4) or (4, 4) poses ``T_world_link``):
-        ``{"q" (N, nq), "success", "position_error", "rotation_error", "iterations"}`` (N,) each."""
+        ``{"q" (N, nq), "success", "position_error", "rotation_error", "iterations"}`` (N,) each;
+        ``avoid_collisions``: answers free of self-collision only (``success`` only for a free one),
+        and ``"collision_free"`` (N,)."""
         query = {"link": link, "mode": mode, "position_tolerance": position_tolerance,
                  "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
-                 "random_seed": random_seed, "verify": verify or None, **_layout(floating_base, False)}
+                 "random_seed": random_seed, "verify": verify or None, **_layout(floating_base, False),
+                 "avoid_collisions": "true" if avoid_collisions else None}
         _, _, data = self.request("POST", f"/models/{self._id(model_id)}/ik", query=query, body=_npy(target),
                                   content_type=NPY, accept=NPZ)
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:

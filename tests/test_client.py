@@ -43,6 +43,9 @@ def test_ik_and_velocity(server, ur5):
     np.testing.assert_allclose(compile_model(ur5).fk(answer["q"], ["tool0"])[:, 0], T, atol=1e-5)
     one = kin.ik("ur5", T[0], link="tool0")
     assert one["q"].shape in ((6,), (1, 6))
+    free = kin.ik("ur5", T, link="tool0", avoid_collisions=True)
+    assert set(free) >= {"q", "success", "collision_free"} and np.all(free["success"] <= free["collision_free"])
+    assert np.array_equal(free["collision_free"], api.collision_free(ur5, free["q"]))
     Qd = np.random.default_rng(3).normal(size=Q.shape)
     V = kin.velocity("ur5", Q, Qd, links=["tool0"])
     assert set(V) == {"world", "local", "local_world_aligned"}

@@ -170,3 +170,12 @@ def test_example_11_self_collision():
     assert "colliding: [False, True]" in out
     assert "same pairs as Pinocchio: 100.0%" in out
     assert deviation(out, "distance deviation from Pinocchio:") < 1e-6
+
+
+def test_example_12_collision_free():
+    out = run_example("12_collision_free.py")
+    assert "solutions: 8, free of self-collision: 4 (4 left out)" in out
+    assert "Pinocchio finds the listed ones free: True" in out
+    assert "plain answer free: False" in out and "with avoid_collisions: success True free True" in out
+    assert "stopped {'index': 43, 'reason': 'collision'}" in out
+    assert re.search(r"workspace: \d+ free samples kept, [1-9]\d* in self-collision dropped", out)

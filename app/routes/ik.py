@@ -10,6 +10,11 @@ With ``solutions: "all"`` the answer lists every solution (``count``, ``solution
 ``.npz`` holds ``q`` (N, K, dof) padded with NaN, ``count`` (N,), ``within_limits``, ``singular``,
 ``position_error``, ``rotation_error`` (N, K)); ``.npy`` requests give ``locked`` as repeated
 ``locked=joint:value`` query parameters.
+
+``avoid_collisions`` (``avoid_collisions=true`` for ``.npy`` bodies): only answers free of
+self-collision, checked on the allowed-collision matrix kept in the data directory (as
+``/collision``); the ``.npz`` answers add ``collision_free`` (N,) (one) or ``colliding`` (N,)
+(all: solutions left out).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from ..errors import ProblemError
 from ..metrics import record_ik
 from ..npy import decode_targets
 from ..responses import NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
+from .collision import cache_dir as collision_cache_dir
 from ..schemas import IK_EXAMPLES, IKAllResponse, IKRequest, IKResponse
 from ..settings import Settings
 
@@ -56,13 +62,14 @@ async def read_ik_request(
     method: Annotated[Literal["auto", "analytic", "numeric"], Query(description=".npy bodies: the method")] = "auto",
     limits: Annotated[Literal["respect", "ignore"], Query(description=".npy bodies: with solutions all")] = "respect",
     locked: LockedQuery = None,
+    avoid_collisions: Annotated[bool, Query(description=".npy bodies: answers free of self-collision only")] = False,
 ) -> IKRequest:
     def npy(body: bytes) -> dict:
         return {"target": decode_targets(body), "link": link, "mode": mode, "max_iterations": max_iterations,
                 "tolerance": {"position": position_tolerance, "rotation": rotation_tolerance}, "restarts": restarts,
                 "random_seed": random_seed, "verify": verify, "point": parse_point(point),
                 "floating_base": floating_base, "normalize": normalize, "solutions": solutions, "method": method,
-                "limits": limits, "locked": parse_locked(locked)}
+                "limits": limits, "locked": parse_locked(locked), "avoid_collisions": avoid_collisions}
 
     return await read_request(request, settings, IKRequest, npy=npy, empty=('{"target": ...}', "target"), batch=None)
 
@@ -86,11 +93,16 @@ async def inverse_kinematics(model_id: ModelId, req: Annotated[IKRequest, Depend
     unreachable target answers 200 with the best `q` found and `success: false`. Work
     (targets x (restarts + 1) x max_iterations) is bounded by the `max_ik_work` setting (413).
     With `point` ([x, y, z] in the link frame) or `tool` (a pose `T_link_tool`) the targets are
-    poses of that frame (a TCP without a URDF edit).
+    poses of that frame (a TCP without a URDF edit). With `avoid_collisions` only answers free of
+    self-collision: `solutions: "all"` leaves the colliding ones out (`colliding` counts them),
+    `"one"` searches on and claims `success` only for a free answer (`collision_free`); a model
+    without collision geometry is a 422.
     """
     steps = (req.restarts + 1) * req.max_iterations
+    # collision checks (and a first request's allowed-collision matrix) run as heavy work
     return await execute(request, _solve, model_id, req, request, registry, settings,
-                         inline=pose_count(req.target) <= INLINE_MAX_TARGETS and steps <= INLINE_MAX_STEPS)
+                         inline=pose_count(req.target) <= INLINE_MAX_TARGETS and steps <= INLINE_MAX_STEPS
+                         and not req.avoid_collisions)
 
 
 def parse_locked(values: list[str] | None) -> dict[str, float] | None:
@@ -109,7 +121,9 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
                          mode=req.mode, position_tolerance=tolerance["position"],
                          rotation_tolerance=tolerance["rotation"], max_iterations=req.max_iterations,
                          restarts=req.restarts, random_seed=req.random_seed, solutions=req.solutions,
-                         method=req.method, locked=req.locked, limits=req.limits)
+                         method=req.method, locked=req.locked, limits=req.limits,
+                         avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,
+                         cache_dir=collision_cache_dir(registry))
     if isinstance(answer, usecases.IKAllAnswer):
         return _all_answer(rec.id, answer, request)
     sol = answer.solution
@@ -117,8 +131,11 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
     if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
         headers = names_headers([answer.link], answer.model.joint_names)
         headers = {"X-Link": answer.link, **{k: v for k, v in headers.items() if "Joint-Names" in k}}
-        return NpzResponse({"q": sol.q, "success": sol.success, "position_error": sol.position_error,
-                            "rotation_error": sol.rotation_error, "iterations": sol.iterations}, headers=headers)
+        arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
+                  "rotation_error": sol.rotation_error, "iterations": sol.iterations}
+        if answer.collision_free is not None:
+            arrays["collision_free"] = answer.collision_free
+        return NpzResponse(arrays, headers=headers)
     one = one_or_all(answer.is_batch)
     verification = None
     if answer.verification is not None:
@@ -129,6 +146,7 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
         "model": rec.id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
         "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
         "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
+        "collision_free": None if answer.collision_free is None else one(answer.collision_free.tolist()),
         "verification": verification,
     })
 
@@ -139,13 +157,17 @@ def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request)
         headers = names_headers([answer.link], answer.model.joint_names)
         headers = {"X-Link": answer.link, "X-Family": answer.family, "X-Method": answer.method,
                    **{k: v for k, v in headers.items() if "Joint-Names" in k}}
-        return NpzResponse({"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
-                            "singular": answer.singular, "position_error": answer.position_error,
-                            "rotation_error": answer.rotation_error}, headers=headers)
+        arrays = {"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
+                  "singular": answer.singular, "position_error": answer.position_error,
+                  "rotation_error": answer.rotation_error}
+        if answer.colliding is not None:
+            arrays["colliding"] = answer.colliding
+        return NpzResponse(arrays, headers=headers)
     one = one_or_all(answer.is_batch)
     return FastJSONResponse({
         "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
         "method": answer.method, "family": answer.family, "locked": answer.locked,
         "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
+        "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
         "verification": answer.verification,
     })

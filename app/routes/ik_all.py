@@ -11,9 +11,9 @@ from kinematics import usecases
 
 from ..adapter import LinkQuery, LockedQuery, budget, error_responses, execute, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
-from ..errors import ProblemError
 from ..responses import FastJSONResponse
 from ..schemas import IK_PATH_EXAMPLES, IKFamilyResponse, IKPathRequest, IKPathResponse
+from .collision import cache_dir as collision_cache_dir
 from .ik import parse_locked
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
@@ -41,10 +41,8 @@ async def ik_path(model_id: ModelId, req: Annotated[IKPathRequest, Depends(read_
                   registry: RegistryDep, settings: SettingsDep):
     """A Cartesian path through `waypoints`: straight lines and rotation geodesics cut at `step`,
     each target solved by continuation from the previous row (the nearest solution of the full set),
-    never a joint change over `max_joint_step`; where it stops, `stopped` says at which target and why."""
-    if req.avoid_collisions:
-        raise ProblemError(422, "avoid_collisions: self-collision checks are not available for paths yet",
-                           slug="validation-error", field="avoid_collisions")
+    never a joint change over `max_joint_step`; where it stops, `stopped` says at which target and why.
+    With `avoid_collisions` the path stops at its first row in self-collision (reason `collision`)."""
     return await execute(request, _path, model_id, req, registry, settings)
 
 
@@ -53,7 +51,9 @@ def _path(model_id: str, req: IKPathRequest, registry, settings):
     tol = req.tolerance
     ans = usecases.ik_path(req.to_query(rec.model, budget(settings)), req.waypoints, seed=req.seed, step=req.step,
                            max_joint_step=req.max_joint_step, position_tolerance=tol["position"],
-                           rotation_tolerance=tol["rotation"], locked=req.locked)
+                           rotation_tolerance=tol["rotation"], locked=req.locked,
+                           avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,
+                           cache_dir=collision_cache_dir(registry))
     return FastJSONResponse({
         "model": rec.id, "link": req.link or rec.model.leaf_links[0], "family": ans.family,
         "joint_names": list(rec.model.joint_names), "q": ans.q, "targets": ans.targets,

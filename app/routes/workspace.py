@@ -24,6 +24,7 @@ from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_np
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpyResponse, NpzResponse
 from ..schemas import WORKSPACE_EXAMPLES, WorkspaceRequest, WorkspaceResponse
 from ..settings import Settings
+from .collision import cache_dir as collision_cache_dir
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -68,11 +69,13 @@ def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry,
         query.budget.check_workspace_samples(req.samples)
         query.budget.check_result(req.samples * 4, f"a cloud of {req.samples} samples x 4")
     ws = usecases.workspace(query, samples=req.samples, voxel=req.voxel, measure=req.measure,
-                            random_seed=req.random_seed)
+                            random_seed=req.random_seed, collision_free=req.collision_free,
+                            collision_samples=settings.collision_samples, cache_dir=collision_cache_dir(registry))
     planar = ws.dimension < 3
     if wants_npy(request) and not _wants_npz(request):
         return NpyResponse(np.column_stack([ws.points, ws.manipulability]),
-                           headers={"X-Link": ws.link, "X-Columns": "x,y,z,manipulability"})
+                           headers={"X-Link": ws.link, "X-Columns": "x,y,z,manipulability",
+                                    "X-Dropped": str(ws.dropped)})
     if _wants_npz(request):
         arrays = {
             "points": ws.points, "manipulability": ws.manipulability, "voxel_centers": ws.voxel_centers,
@@ -80,6 +83,7 @@ def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry,
             "bounding_box": ws.bounding_box, "reach": np.float64(ws.reach), "volume": np.float64(ws.volume),
             "convergence": np.array(ws.convergence, dtype=np.float64).reshape(-1, 2), "voxel": np.float64(ws.voxel),
             "cell": ws.cell, "axes": ws.axes, "origin": ws.origin, "dimension": np.int64(ws.dimension),
+            "dropped": np.int64(ws.dropped),
         }
         if planar:
             arrays["area"] = np.float64(ws.area)
@@ -87,7 +91,8 @@ def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry,
     key = "area" if planar else "volume"
     M = ws.manipulability
     body = {
-        "model": rec.id, "link": ws.link, "samples": ws.samples, "random_seed": ws.random_seed, "measure": ws.measure,
+        "model": rec.id, "link": ws.link, "samples": ws.samples, "collision_free": ws.collision_free,
+        "dropped": ws.dropped, "random_seed": ws.random_seed, "measure": ws.measure,
         "dimension": ws.dimension,
         "bounding_box": {"min": ws.bounding_box[0], "max": ws.bounding_box[1]},
         "reach": ws.reach, "volume": ws.volume,

@@ -6,7 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import BasePose, Integer, JointValues, Number, QueryRequest, Vector
+from .common import BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -45,6 +45,11 @@ class IKRequest(QueryRequest):
         default="respect", description="with solutions all: respect lists every solution inside the limits, each "
                                        "q + 2 pi k copy of a revolute joint included; ignore lists each branch once, "
                                        "revolute angles in (-pi, pi], flagged within_limits")
+    avoid_collisions: Flag = Field(
+        default=False, description="only answers free of self-collision (the allowed-collision matrix's enabled "
+                                   "pairs): with solutions all the colliding ones are left out (counted in "
+                                   "colliding); with one the search goes on until a free answer is found, and "
+                                   "success holds only for a free one. A model without collision geometry: 422")
 
 
 class IKVerification(BaseModel):
@@ -64,6 +69,8 @@ class IKResponse(BaseModel):
     position_error: Union[float, list[float]] = Field(description="metres, measured on the answer")
     rotation_error: Union[float, list[float]] = Field(description="radians, measured on the answer")
     iterations: Union[int, list[int]] = Field(description="steps taken, over every attempt")
+    collision_free: Union[bool, list[bool], None] = Field(
+        default=None, description="with avoid_collisions: q is free of self-collision")
     verification: IKVerification | None = None
 
 
@@ -76,4 +83,7 @@ IK_EXAMPLES = {
                        "value": {"link": "tool0", "mode": "position", "seed": [0, -1, 1, 0, 0, 0], "verify": True,
                                  "target": [{"position": [0.4, 0.2, 0.3], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
                                             {"xyz": [0.3, -0.3, 0.5], "rpy": [0, 0, 0]}]}},
+    "all_collision_free": {"summary": "ur5: every solution free of self-collision",
+                           "value": {"link": "tool0", "solutions": "all", "avoid_collisions": True,
+                                     "target": {"xyz": [0.4, 0.1, 0.3], "rpy": [3.14159, 0, 0]}}},
 }

@@ -7,7 +7,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import BasePose, JointValues, Number, QueryRequest, Vector
+from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector
 from .ik import IKTolerance
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
@@ -31,6 +31,8 @@ class IKAllResponse(BaseModel):
     count: Union[int, list[int]] = Field(description="solutions per target")
     solutions: Union[list[IKSolutionRecord], list[list[IKSolutionRecord]]] = Field(
         description="nearest the seed first when a seed is given; for a batch one list per target")
+    colliding: Union[int, list[int], None] = Field(
+        default=None, description="with avoid_collisions: solutions left out as in self-collision (per target)")
     verification: dict | None = None
 
 
@@ -62,7 +64,8 @@ class IKPathRequest(QueryRequest):
     max_joint_step: Number = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
-    avoid_collisions: bool = Field(default=False, description="not available yet: must be false")
+    avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "
+                                                               "collision); a model without collision geometry: 422")
 
 
 class PathStop(BaseModel):

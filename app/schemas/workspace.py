@@ -6,7 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import ToQuery, _POINT_DESC, _TOOL_DESC, BasePose, Integer, Number, Point, Vector
+from .common import ToQuery, _POINT_DESC, _TOOL_DESC, BasePose, Flag, Integer, Number, Point, Vector
 
 class WorkspaceRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -21,6 +21,10 @@ class WorkspaceRequest(ToQuery, BaseModel):
     measure: Literal["pose", "position"] = Field(
         default="pose", description="manipulability: product of the singular values of the 6 x k local_world_aligned "
                                     "Jacobian over the k joints on the path (pose) or of its 3 position rows (position)")
+    collision_free: Flag = Field(
+        default=False, description="keep only the samples free of self-collision (joints off the link's path at the "
+                                   "middle of their limits); dropped counts the others. A model without collision "
+                                   "geometry: 422")
 
 
 class BoundingBox(BaseModel):
@@ -43,7 +47,9 @@ class ManipulabilityStats(BaseModel):
 class WorkspaceResponse(BaseModel):
     model: str
     link: str
-    samples: int
+    samples: int = Field(description="samples analysed (with collision_free: those kept)")
+    collision_free: bool = Field(default=False, description="only samples free of self-collision were kept")
+    dropped: int = Field(default=0, description="with collision_free: samples drawn and left out as in self-collision")
     random_seed: int
     measure: Literal["pose", "position"]
     dimension: int = Field(description="3: the samples fill space; 2: they lie in a plane (a planar arm); 1, 0")
@@ -68,5 +74,7 @@ WORKSPACE_EXAMPLES = {
     "ur5_tcp": {"summary": "a TCP 10 cm along tool0's z, position manipulability, 5 cm cells",
                 "value": {"link": "tool0", "point": [0, 0, 0.1], "samples": 200000, "voxel": 0.05,
                           "measure": "position", "random_seed": 7}},
+    "ur5_free": {"summary": "UR5 tool0, the 20,000 samples' collision-free part",
+                 "value": {"link": "tool0", "samples": 20000, "collision_free": True}},
 }
 

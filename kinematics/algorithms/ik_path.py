@@ -10,7 +10,10 @@ copies included) nearest the previous row; a chain without a closed form takes d
 from the previous row. The path stops at the first target where that is impossible, and says why:
 ``unreachable`` (no solution, limits or not), ``limits`` (solutions exist, none inside the limits),
 ``joint_jump`` (the nearest solution is more than ``max_joint_step`` away in some joint: the branch
-ends there, e.g. at a singularity, and any continuation would flip the arm).
+ends there, e.g. at a singularity, and any continuation would flip the arm); with a
+``collision_free`` filter, ``collision`` (the continuation's row there is in self-collision: the
+arm would run into itself; the rows before it are free). The continuation never depends on the
+filter, so the rows before a stop are those of the same path without it.
 
 The answer's ``fraction`` is the share of the path's length achieved (positions; rotation angles
 for a path that only turns).
@@ -107,10 +110,12 @@ def cartesian_path(model: RobotModel, link: str, waypoints: np.ndarray, seed: np
                    step_position: float = DEFAULT_STEP_POSITION, step_rotation: float = DEFAULT_STEP_ROTATION,
                    max_joint_step: float = DEFAULT_MAX_JOINT_STEP,
                    position_tolerance: float = DEFAULT_POSITION_TOLERANCE,
-                   rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE) -> PathAnswer:
+                   rotation_tolerance: float = DEFAULT_ROTATION_TOLERANCE,
+                   collision_free=None) -> PathAnswer:
     """The path of ``link`` (or ``tool`` on it) through ``waypoints`` (N, 4, 4, world frame; ``base``
     ``T_world_root``) from ``seed`` (dof,; default: the solution of the first target nearest the
-    middle of the limits). See the module text."""
+    middle of the limits). ``collision_free``: None, or ``free(Q)`` (R, dof) -> (R,) bool; the path
+    stops at its first row that is not free (reason ``collision``). See the module text."""
     if not max_joint_step > 0:
         raise KinematicsError("max_joint_step: must be positive")
     W = np.asarray(waypoints, dtype=float).reshape(-1, 4, 4)
@@ -165,6 +170,13 @@ def cartesian_path(model: RobotModel, link: str, waypoints: np.ndarray, seed: np
         rows.append(best)
         prev = best
     Q = np.array(rows).reshape(len(rows), model.dof)
+    if collision_free is not None and len(Q):
+        # the rows in order: the first one in self-collision ends the path there
+        free = np.asarray(collision_free(Q), dtype=bool)
+        if not free.all():
+            first = int(np.argmin(free))
+            Q = Q[:first]
+            stopped = {"index": first, "reason": "collision"}
     if len(Q):
         p, r = pose_errors(poe.fk(Q, [link], tool=tool)[:, 0], targets[:len(Q)])
     else:

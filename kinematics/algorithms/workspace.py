@@ -49,6 +49,7 @@ The 2R planar arm (``a1 = 0.5``, ``a2 = 0.4``, full turns) reaches the annulus
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -122,6 +123,8 @@ class Workspace:
     converged: bool = False
     advice: str | None = None
     occupied: float = 0.0
+    collision_free: bool = False  # only samples free of self-collision were kept
+    dropped: int = 0  # samples drawn and left out (in self-collision)
 
     @property
     def samples(self) -> int:
@@ -152,9 +155,13 @@ def sampling_bounds(model: RobotModel, cols: np.ndarray) -> tuple[np.ndarray, np
 
 def sample_workspace(model: RobotModel, link: str, samples: int, *, tool: np.ndarray | None = None,
                      measure: str = "pose", random_seed: int = 0,
-                     progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     progress: Callable[[int], None] | None = None,
+                     keep: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(points (N, 3), manipulability (N,))`` of ``link`` (times ``tool``) at ``samples`` uniform
-    configurations (``progress(n)`` after each chunk of n)."""
+    configurations (``progress(n)`` after each chunk of n). ``keep``: None, or ``keep(Q)`` (m, dof)
+    -> (m,) bool, the samples to keep (e.g. those free of self-collision): the answer then has the
+    kept samples only, in their order (the draws are the same, so the kept samples are a subset of
+    the unfiltered answer's)."""
     if measure not in MEASURES:
         raise KinematicsError(f"measure: {measure!r} is not one of {', '.join(MEASURES)}")
     if samples < 1:
@@ -168,6 +175,7 @@ def sample_workspace(model: RobotModel, link: str, samples: int, *, tool: np.nda
     P = np.empty((samples, 3))
     M = np.empty(samples)
     Q = np.zeros((min(CHUNK, samples), model.dof))
+    kept = 0
     for a in range(0, samples, CHUNK):
         cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
         m = min(CHUNK, samples - a)
@@ -175,8 +183,15 @@ def sample_workspace(model: RobotModel, link: str, samples: int, *, tool: np.nda
         if len(cols):
             Qc[:, cols] = rng.uniform(lo, hi, (m, len(cols)))
         sample_frame(kernel, Qc, li, tool, MEASURES[measure], P[a : a + m], M[a : a + m])
+        if keep is not None:
+            mask = np.asarray(keep(Qc), dtype=bool)
+            k = int(mask.sum())
+            P[kept : kept + k], M[kept : kept + k] = P[a : a + m][mask], M[a : a + m][mask]
+            kept += k
         if progress is not None:
             progress(m)
+    if keep is not None:
+        return P[:kept].copy(), M[:kept].copy()
     return P, M
 
 
@@ -387,12 +402,21 @@ def analyse(P: np.ndarray, M: np.ndarray, *, link: str = "", measure: str = "pos
 
 def workspace(model: RobotModel, link: str, samples: int = DEFAULT_SAMPLES, *, tool: np.ndarray | None = None,
               measure: str = "pose", voxel: float | None = None, random_seed: int = 0,
-              progress: Callable[[int], None] | None = None) -> Workspace:
+              progress: Callable[[int], None] | None = None,
+              keep: Callable[[np.ndarray], np.ndarray] | None = None) -> Workspace:
     """Sample the workspace of ``link`` (or of the frame ``tool`` = ``T_link_tool`` on it) and
     analyse it (see the module docstring): ``samples`` configurations, manipulability
     ``measure`` (``pose``: the 6 x k Jacobian; ``position``: its 3 position rows), grid edge
-    ``voxel`` (None: chosen from the samples), draws from ``random_seed``."""
+    ``voxel`` (None: chosen from the samples), draws from ``random_seed``. ``keep``: only the
+    samples it accepts are analysed (:func:`sample_workspace`; the answer's ``dropped`` counts the
+    others, ``collision_free`` is set)."""
     P, M = sample_workspace(model, link, samples, tool=tool, measure=measure, random_seed=random_seed,
-                            progress=progress)
+                            progress=progress, keep=keep)
     cancel.check()
-    return analyse(P, M, link=link, measure=measure, voxel=voxel, random_seed=random_seed)
+    if keep is not None and len(P) == 0:
+        raise KinematicsError(f"collision_free: every one of the {samples} samples of {link!r} is in self-collision; "
+                              "nothing is left to analyse")
+    ws = analyse(P, M, link=link, measure=measure, voxel=voxel, random_seed=random_seed)
+    if keep is None:
+        return ws
+    return dataclasses.replace(ws, collision_free=True, dropped=int(samples - len(P)))

@@ -67,6 +67,21 @@ def _matrix_options(p) -> None:
                    help="keep the matrix in DIR and read it back next time (default $KIN_COLLISION_CACHE)")
 
 
+def add_filter_options(p, flag: str, help: str) -> None:
+    """``flag`` (collision-free answers only) with the matrix behind it: ``--collision-samples N``,
+    ``--collision-cache DIR`` (``kinematics ik``, ``ik-path``, ``workspace``)."""
+    p.add_argument(flag, action="store_true", help=help + "; a model without collision geometry is refused")
+    p.add_argument("--collision-samples", type=int, default=DEFAULT_SAMPLES, metavar="N",
+                   help=f"random configurations behind the allowed-collision matrix (default {DEFAULT_SAMPLES})")
+    p.add_argument("--collision-cache", metavar="DIR", default=os.environ.get("KIN_COLLISION_CACHE"),
+                   help="keep the matrix in DIR and read it back next time (default $KIN_COLLISION_CACHE)")
+
+
+def filter_options(args) -> dict:
+    """The use cases' keywords of :func:`add_filter_options`' options (without the flag)."""
+    return {"collision_samples": args.collision_samples, "cache_dir": args.collision_cache}
+
+
 def _matrix_with_bar(model, args):
     bar = progress(total=args.samples, desc="collision matrix", unit="cfg")
     done = [0]

@@ -28,6 +28,7 @@ from ..algorithms.ik import (
     MIN_TOLERANCE,
 )
 from ..errors import JointValueError
+from .collision import add_filter_options, filter_options
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE
 from .pipeline import (
@@ -110,6 +111,9 @@ def register(sub) -> None:
                    "ignore (each branch once, angles in (-pi, pi])")
     p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[],
                    help="hold a joint at a value (repeat for several; a 7-dof arm with one locked is a 6-joint chain)")
+    add_filter_options(p, "--avoid-collisions", "answers free of self-collision only: with --all the colliding "
+                       "solutions are left out; else the search goes on until a free answer is found (success only "
+                       "when free)")
     p.set_defaults(func=run_ik)
 
 
@@ -156,8 +160,12 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     if out_fmt not in ("csv", "jsonl"):
         return _fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
     api.ik_family(model, link=link, locked=locked)  # a bad --locked fails before any output
+    if args.avoid_collisions:  # a model without collision geometry fails before any output too
+        from ..usecases.collision import collision_filter
+
+        collision_filter(model, "avoid_collisions", samples=args.collision_samples)
     names = list(model.joint_names)
-    total = unsolved = rows = 0
+    total = unsolved = rows = colliding = 0
     family = method = "?"
     out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
     try:
@@ -167,8 +175,11 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
             for start, T in targets:
                 a = api.ik(model, T, link=link, seed=seed, mode=args.mode, solutions="all", method=args.method,
                            limits=args.limits, locked=locked or None, position_tolerance=args.position_tolerance,
-                           rotation_tolerance=args.rotation_tolerance, verify=args.verify)
+                           rotation_tolerance=args.rotation_tolerance, verify=args.verify,
+                           avoid_collisions=args.avoid_collisions, **filter_options(args))
                 family, method = a.family, a.method
+                if a.colliding is not None:
+                    colliding += int(a.colliding.sum())
                 for n in range(len(a.count)):
                     total += 1
                     unsolved += int(a.count[n] == 0)
@@ -189,8 +200,9 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     finally:
         if out is not dest:
             out.close()
-    print(f"ik: {rows} solutions of {total} targets ({family}, {method}); {unsolved} targets without a solution",
-          file=sys.stderr)
+    left_out = f"; {colliding} solutions left out as in self-collision" if args.avoid_collisions else ""
+    print(f"ik: {rows} solutions of {total} targets ({family}, {method}); {unsolved} targets without a solution"
+          f"{left_out}", file=sys.stderr)
     return EXIT_DISAGREE if unsolved else EXIT_OK
 
 
@@ -205,6 +217,8 @@ def _bad_option(args) -> str | None:
         return "--max-iterations must be at least 1"
     if args.restarts < 0:
         return "--restarts must be at least 0"
+    if args.collision_samples < 1:
+        return "--collision-samples must be at least 1"
     return None
 
 
@@ -222,7 +236,8 @@ def _solve(args, model, link: str, seed) -> int:
                                     position_tolerance=args.position_tolerance,
                                     rotation_tolerance=args.rotation_tolerance,
                                     max_iterations=args.max_iterations, restarts=args.restarts,
-                                    random_seed=args.random_seed)
+                                    random_seed=args.random_seed, avoid_collisions=args.avoid_collisions,
+                                    **filter_options(args))
                     writer.write(answer.solution, chunk_times(targets, start, T.shape[0]))
                     summary.add(start, answer)
                     bar.update(T.shape[0])

@@ -16,6 +16,7 @@ import numpy as np
 from .. import api
 from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
 from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from .collision import add_filter_options, filter_options
 from .ik import parse_locked
 from .pipeline import ModelLoadError, _fail, _model_options, _quietly, load_model, open_input
 
@@ -40,6 +41,7 @@ def register(sub) -> None:
     p.add_argument("--step-rotation", type=float, default=DEFAULT_STEP_ROTATION, metavar="RAD")
     p.add_argument("--max-joint-step", type=float, default=DEFAULT_MAX_JOINT_STEP, metavar="RAD")
     p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[])
+    add_filter_options(p, "--avoid-collisions", "stop at the first row in self-collision (reason collision)")
     p.set_defaults(func=run_ik_path)
 
 
@@ -66,7 +68,8 @@ def _run(args, model, seed, locked) -> int:
     with open_input(args, model, source, fmt, targets=True) as rows:
         W = np.concatenate([T for _, T in rows])
     ans = api.ik_path(model, W, link=args.link, seed=seed, locked=locked or None, max_joint_step=args.max_joint_step,
-                      step={"position": args.step_position, "rotation": args.step_rotation})
+                      step={"position": args.step_position, "rotation": args.step_rotation},
+                      avoid_collisions=args.avoid_collisions, **filter_options(args))
     out = sys.stdout if args.output == "-" else open(args.output, "w", encoding="utf-8")
     try:
         out.write(",".join(model.joint_names) + "\n")

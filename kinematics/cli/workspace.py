@@ -23,6 +23,7 @@ from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CE
 from ..errors import MissingExtraError
 from ..usecases import Query
 from . import EXIT_OK, EXIT_USAGE
+from .collision import add_filter_options, filter_options
 from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
 from .progress import progress
 
@@ -65,6 +66,8 @@ def register(sub) -> None:
                    help="manipulability of the 6 x k Jacobian (pose, default) or of its position rows")
     p.add_argument("-o", "--output", metavar="FILE", help="write the cloud: .npz or .csv")
     p.add_argument("--plot", metavar="PNG", help="draw the dexterity slices and the convergence (PNG)")
+    add_filter_options(p, "--collision-free", "keep only the samples free of self-collision (joints off the link's "
+                       "path at the middle of their limits); the summary says how many were dropped")
     p.set_defaults(func=run_workspace)
 
 
@@ -90,7 +93,8 @@ def run_workspace(args) -> int:
     bar = progress(total=args.samples, desc="workspace", unit="sample", unit_scale=True)
     try:
         ws = api.workspace(query, samples=args.samples, voxel=args.voxel, measure=args.measure,
-                           random_seed=args.seed, progress=bar.update)
+                           random_seed=args.seed, progress=bar.update, collision_free=args.collision_free,
+                           **filter_options(args))
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
@@ -112,7 +116,8 @@ def summary(name: str, ws, elapsed: float) -> str:
     conv = ", ".join(f"{v:.4g} ({n})" for n, v in ws.convergence)
     M = ws.manipulability
     return "\n".join([
-        f"workspace of {name} link {ws.link}: {ws.samples} samples (seed {ws.random_seed}) in {elapsed:.2f} s",
+        f"workspace of {name} link {ws.link}: {ws.samples} samples (seed {ws.random_seed}) in {elapsed:.2f} s"
+        + (f"; {ws.dropped} in self-collision dropped" if ws.collision_free else ""),
         f"  bounding box  min [{lo[0]:.4f}, {lo[1]:.4f}, {lo[2]:.4f}]  max [{hi[0]:.4f}, {hi[1]:.4f}, {hi[2]:.4f}] m",
         f"  reach         {ws.reach:.4f} m (from the root)",
         f"  dimension     {ws.dimension}" + (" (planar)" if ws.dimension == 2 else ""),
@@ -134,7 +139,7 @@ def write_cloud(ws, path: str) -> None:
                           bounding_box=ws.bounding_box, reach=np.float64(ws.reach), volume=np.float64(ws.volume),
                           convergence=np.array(ws.convergence, dtype=float).reshape(-1, 2),
                           voxel=np.float64(ws.voxel), cell=ws.cell, axes=ws.axes, origin=ws.origin,
-                          dimension=np.int64(ws.dimension))
+                          dropped=np.int64(ws.dropped), dimension=np.int64(ws.dimension))
             if ws.planar:
                 arrays["area"] = np.float64(ws.area)
             np.savez(fh, **arrays)

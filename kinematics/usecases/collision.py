@@ -97,3 +97,27 @@ def collision_free(query: Query | RobotModel, Q: Any, *, margin: float = 0.0, sa
     query = Query.of(query, **options)
     Q, _ = query.joints(Q)
     return _sc.collision_free(query.robot, Q, margin=margin, samples=_samples(samples), cache_dir=cache_dir)
+
+
+def collision_filter(model: RobotModel, field: str, *, samples: int = DEFAULT_SAMPLES, margin: float = 0.0,
+                     cache_dir: os.PathLike | str | None = None) -> Callable[[np.ndarray], np.ndarray]:
+    """The filter of collision-free IK, paths and workspaces: ``free(Q)`` (R, dof) -> (R,) bool on the
+    matrix's enabled pairs (:func:`kinematics.algorithms.ik_collision.self_collision_filter`).
+
+    A model without collision geometry on any link cannot tell a colliding configuration from a
+    free one, so asking ``field`` of it is a :class:`~kinematics.errors.CollisionError` naming the
+    model and what its geometry left out (never a silent "free"). A model with floating or planar
+    joints is refused too (self-collision is checked on one-dof joints)."""
+    from ..algorithms.ik_collision import self_collision_filter
+
+    if model.multi_dof:
+        raise CollisionError(f"{field}: self-collision is checked on models with one-dof joints only "
+                             f"(model {model.name!r} has floating or planar joints; without floating_base, give the base pose "
+                             "as base)")
+    cm = _sc.geometry(model)
+    if not cm.links:
+        left_out = f" ({'; '.join(cm.warnings)})" if cm.warnings else ""
+        raise CollisionError(f"{field}: model {model.name!r} has no collision geometry{left_out}, so no "
+                             "configuration can be told free of self-collision; give a URDF with <collision> "
+                             "elements (meshes inside an uploaded archive), or leave the option out")
+    return self_collision_filter(model, samples=_samples(samples), margin=margin, cache_dir=cache_dir)

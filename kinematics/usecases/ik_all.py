@@ -20,12 +20,15 @@ import numpy as np
 from ..algorithms import ik as _ik
 from ..algorithms import ik_all as _ik_all
 from ..algorithms import ik_path as _ik_path
+from ..algorithms.collision_matrix import DEFAULT_SAMPLES as COLLISION_SAMPLES
 from ..algorithms.ik import IKSolution, inverse_kinematics, pose_errors
+from ..algorithms.ik_collision import free_solutions
 from ..algorithms.ik_families import detect, reduce_chain
 from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
+from .collision import collision_filter
 from .query import Query
 
 SOLUTIONS = ("one", "all")
@@ -39,7 +42,9 @@ class IKAllAnswer:
     ``position_error``, ``rotation_error`` (N, K), ``complete`` (N,): see
     :class:`~kinematics.algorithms.ik_all.AllSolutions`; ``family`` (its name), ``method``
     (``"analytic"`` or ``"search"``); ``verification``: Pinocchio's FK of every listed solution
-    (``max_position_error``, ``max_rotation_error`` against its target).
+    (``max_position_error``, ``max_rotation_error`` against its target); ``colliding`` (N,) with
+    ``avoid_collisions``: how many solutions of each target were left out as in self-collision
+    (None without it).
     """
 
     model: RobotModel
@@ -58,6 +63,7 @@ class IKAllAnswer:
     complete: np.ndarray
     locked: dict
     verification: dict[str, Any] | None = None
+    colliding: np.ndarray | None = None
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -95,7 +101,8 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
            rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE, method: str = "auto",
            locked: dict | None = None, limits: str = "respect", one: bool = False,
            max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
-           random_seed: int = 0, **options: Any):
+           random_seed: int = 0, avoid_collisions: bool = False, collision_samples: int = COLLISION_SAMPLES,
+           cache_dir: Any = None, **options: Any):
     """Every solution putting the query's link (or its point / tool frame) at ``target`` (one pose or
     a list, ``T_world_link``): an :class:`IKAllAnswer`. ``method``: ``auto`` (the closed form of the
     chain's family where it has one, else the multistart search), ``analytic`` (the closed form or a
@@ -103,7 +110,14 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     ``{joint: value}``; ``limits``: ``respect`` or ``ignore``; ``seed``: solutions nearest it first.
     ``one``: ``(link, targets, is_batch, IKSolution)`` of the solution nearest the seed (default the
     middle of the limits), today's numerical answer (``success`` false) where there is none
-    (:func:`kinematics.usecases.ik.ik` answers it)."""
+    (:func:`kinematics.usecases.ik.ik` answers it).
+
+    ``avoid_collisions``: only the solutions free of self-collision are listed (the enabled pairs of
+    the model's allowed-collision matrix from ``collision_samples`` configurations, kept in
+    ``cache_dir``; :func:`kinematics.usecases.collision.collision_filter`, which refuses a model
+    without collision geometry); the answer's ``colliding`` counts those left out. Joints off the
+    chain (a gripper's fingers) take the seed's values, without a seed the middle of their limits
+    (numerical IK's default seed; without ``avoid_collisions``: 0), since they collide too."""
     query = Query.of(query, **options)
     if query.floating_base:
         raise KinematicsError("floating_base: every IK solution needs a fixed base (give the base pose as base)")
@@ -111,6 +125,8 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     T, is_batch = query.targets(target)
     N = T.shape[0]
     link = query.frame_link()
+    free = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
+            if avoid_collisions else None)
     # the work: candidates x Newton steps per target (the search: its seeds x its steps)
     if detect(reduce_chain(model, link, locked)).closed_form and method != "numeric":
         budget.check_ik_work(N, 15, _ik_all.NEAR_STEPS)
@@ -124,6 +140,11 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     sol = _ik_all.all_solutions(model, link, T, base=B, tool=T_tool, locked=locked, limits=limits, method=method,
                                 seed=seeds, mode=mode, position_tolerance=position_tolerance,
                                 rotation_tolerance=rotation_tolerance)
+    colliding = None
+    if free is not None:
+        if seeds is None:  # joints off the chain (a gripper) at the middle of their limits, not at 0
+            sol = _off_chain_at_middle(model, link, locked, T_tool, sol)
+        sol, colliding = free_solutions(sol, free)
     if one:  # (link, targets, is_batch, the IKSolution) for kinematics.usecases.ik.ik to answer
         return link, T, is_batch, _nearest(model, link, T, B, T_tool, sol, seeds, mode, position_tolerance,
                                            rotation_tolerance, max_iterations, restarts, random_seed)
@@ -141,7 +162,26 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
         verification = {"reference": REFERENCE_NAME, "max_position_error": worst_p, "max_rotation_error": worst_r}
     return IKAllAnswer(model, link, mode, is_batch, T, sol.family.name, sol.method, sol.q, sol.count, sol.within_limits,
                        sol.singular, sol.position_error, sol.rotation_error, sol.complete,
-                       dict(sol.family.chain.locked), verification)
+                       dict(sol.family.chain.locked), verification, colliding)
+
+
+def _off_chain_at_middle(model: RobotModel, link: str, locked, T_tool, sol):
+    """``sol`` with the joints off the chain to ``link`` (neither moved nor locked) at the middle of
+    their limits, the default seed of numerical IK; ``within_limits`` measured again."""
+    import dataclasses
+
+    from ..tolerances import LIMIT_TOLERANCE
+
+    chain = reduce_chain(model, link, locked, T_tool)
+    held = set(chain.columns.tolist()) | {model.q_index[name] for name in chain.locked}
+    off = np.array([c for c in range(model.dof) if c not in held], dtype=np.intp)
+    if off.size == 0:
+        return sol
+    listed = np.arange(sol.q.shape[1])[None, :] < sol.count[:, None]
+    q = sol.q.copy()
+    q[..., off] = np.where(listed[..., None], _ik.middle_of_limits(model)[off], np.nan)
+    inside = np.all((q >= model.lower_limits - LIMIT_TOLERANCE) & (q <= model.upper_limits + LIMIT_TOLERANCE), axis=2)
+    return dataclasses.replace(sol, q=q, within_limits=inside & listed)
 
 
 def _nearest(model, link, T, B, T_tool, sol, seeds, mode, position_tolerance, rotation_tolerance, max_iterations,
@@ -183,11 +223,17 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
             max_joint_step: float = _ik_path.DEFAULT_MAX_JOINT_STEP,
             position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
             rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE, locked: dict | None = None,
+            avoid_collisions: bool = False, collision_samples: int = COLLISION_SAMPLES, cache_dir: Any = None,
             **options: Any) -> _ik_path.PathAnswer:
     """A Cartesian path of the query's link through ``waypoints`` (two or more poses, world frame) from
     ``seed`` (the start configuration): :func:`kinematics.algorithms.ik_path.cartesian_path`.
-    ``step``: ``{"position": m, "rotation": rad}``, the largest step between consecutive targets."""
+    ``step``: ``{"position": m, "rotation": rad}``, the largest step between consecutive targets.
+    ``avoid_collisions``: the path stops at its first row in self-collision, ``stopped`` ``{"index",
+    "reason": "collision"}`` (the matrix of ``collision_samples`` configurations, kept in ``cache_dir``;
+    a model without collision geometry is refused)."""
     query = Query.of(query, **options)
+    free = (collision_filter(query.robot, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
+            if avoid_collisions else None)
     W, _ = pose_list(waypoints, "waypoints")
     link = query.frame_link()
     q0 = None
@@ -203,4 +249,4 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
                                    step_position=float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
                                    step_rotation=float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)),
                                    max_joint_step=max_joint_step, position_tolerance=position_tolerance,
-                                   rotation_tolerance=rotation_tolerance)
+                                   rotation_tolerance=rotation_tolerance, collision_free=free)
