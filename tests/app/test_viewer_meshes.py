@@ -1,0 +1,87 @@
+"""The viewer draws catalogue robots with their real meshes and paints the links in self-collision
+red as the joints move, in a real headless Chromium (see test_viewer.py)."""
+
+from __future__ import annotations
+
+import httpx
+import pytest
+
+from tests.app.test_viewer import (ARTIFACTS, _canvas_image, _frames_drawn, _open, _set_slider, _severe_console,  # noqa: F401
+                                   _state, _wait, browser, needs_browser)
+from tests.live import LiveServer
+
+#: the viewer's colour of a link in self-collision (meshes.js COLLIDING_COLOR)
+COLLIDING = 0xE0202A
+#: the UR5 with its elbow shut: the wrist inside the upper arm
+FOLDED = {"shoulder_lift_joint": -1.0, "elbow_joint": 2.9}
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    """A service whose allowed-collision matrices sample few configurations (quick to compute)."""
+    tmp = tmp_path_factory.mktemp("viewer-meshes")
+    with LiveServer(tmp / "data", tmp / "uvicorn.log", env={"KIN_COLLISION_SAMPLES": "500"}) as live:
+        yield live.url
+
+
+#: the same as q (ur5 joint order); the sliders snap to their step
+FOLDED_Q = [0.0, -1.0, 2.9, 0.0, 0.0, 0.0]
+
+
+def _near(q, expected, tol: float = 1e-2) -> bool:
+    return q is not None and len(q) == len(expected) and all(abs(a - b) < tol for a, b in zip(q, expected))
+
+
+def _colours(driver, link: str) -> list[int]:
+    return driver.execute_script("return window.viewerDebug.linkColours(arguments[0])", link)
+
+
+@needs_browser
+@pytest.mark.parametrize("model_id", ["ur5", "panda"])
+def test_catalogue_models_are_drawn_with_their_meshes(server, browser, model_id):
+    _open(browser, f"{server}/viewer/{model_id}")
+    meshes = _wait(browser, lambda d: (lambda m: m if m["expected"] and m["loaded"] + m["failed"] == m["expected"]
+                                       else None)(_state(d)["meshes"]), "every mesh loaded or failed")
+    assert meshes["failed"] == 0 and meshes["loaded"] > 0, meshes["errors"]
+    state = _wait(browser, lambda d: (lambda c: c if c["responses"] >= 1 else None)(_state(d)["collision"]),
+                  "the first self-collision answer")
+    # the page shows what the service answers for the configuration drawn (panda's q = 0 clamped
+    # into its limits touches; the UR5's does not)
+    answer = httpx.post(f"{server}/models/{model_id}/collision", json={"q": state["q"]}).json()
+    assert state["pairs"] == answer["pairs"]
+    status = browser.find_element("id", "collision-status").text
+    if model_id == "ur5":
+        assert answer["pairs"] == [] and status == "self-collision: none"
+    else:
+        assert status == "self-collision: " + ", ".join(f"links {a}–{b}" for a, b in answer["pairs"])
+    assert _severe_console(browser) == []
+
+
+@needs_browser
+def test_a_colliding_configuration_turns_its_links_red(server, browser):
+    _open(browser, f"{server}/viewer/ur5")
+    _wait(browser, lambda d: (lambda m: m["expected"] and m["loaded"] == m["expected"])(_state(d)["meshes"]),
+          "the meshes loaded")
+    _wait(browser, lambda d: _state(d)["collision"]["responses"] >= 1, "the first self-collision answer")
+    assert COLLIDING not in _colours(browser, "upper_arm_link")
+    for joint, value in FOLDED.items():
+        _set_slider(browser, joint, value)
+    state = _wait(browser, lambda d: (lambda c: c if c["links"] and _near(c["q"], FOLDED_Q) else None)(
+        _state(d)["collision"]), "the folded arm's collision answer")
+    assert "upper_arm_link" in state["links"] and "base_link" not in state["links"]
+    for link in state["links"]:
+        colours = _colours(browser, link)
+        assert colours and all(c == COLLIDING for c in colours), (link, colours)
+    assert COLLIDING not in _colours(browser, "base_link")
+    status = browser.find_element("id", "collision-status").text
+    assert status.startswith("self-collision: links ") and "upper_arm_link" in status
+    _frames_drawn(browser)
+    ARTIFACTS.mkdir(exist_ok=True)
+    _canvas_image(browser).save(ARTIFACTS / "viewer_meshes.png")
+    # back to a free configuration: the red goes
+    for joint in FOLDED:
+        _set_slider(browser, joint, 0.0)
+    _wait(browser, lambda d: (lambda c: not c["links"] and _near(c["q"], [0.0] * 6))(_state(d)["collision"]),
+          "the stretched arm's collision answer")
+    assert COLLIDING not in _colours(browser, "upper_arm_link")
+    assert _severe_console(browser) == []
