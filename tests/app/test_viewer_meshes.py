@@ -12,8 +12,11 @@ from tests.live import LiveServer
 
 #: the viewer's colour of a link in self-collision (meshes.js COLLIDING_COLOR)
 COLLIDING = 0xE0202A
-#: the UR5 with its elbow shut: the wrist inside the upper arm
-FOLDED = {"shoulder_lift_joint": -1.0, "elbow_joint": 2.9}
+#: the UR5 with its elbow shut: the first wrist link inside the upper arm
+UR5_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+              "wrist_3_joint"]
+FOLDED_Q = [0.2, -1.4, 2.87, -2.87, -1.37, 0.4]
+FOLDED = dict(zip(UR5_JOINTS, FOLDED_Q))
 
 
 @pytest.fixture(scope="module")
@@ -22,10 +25,6 @@ def server(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("viewer-meshes")
     with LiveServer(tmp / "data", tmp / "uvicorn.log", env={"KIN_COLLISION_SAMPLES": "500"}) as live:
         yield live.url
-
-
-#: the same as q (ur5 joint order); the sliders snap to their step
-FOLDED_Q = [0.0, -1.0, 2.9, 0.0, 0.0, 0.0]
 
 
 def _near(q, expected, tol: float = 1e-2) -> bool:
@@ -69,15 +68,19 @@ def test_a_colliding_configuration_turns_its_links_red(server, browser):
     state = _wait(browser, lambda d: (lambda c: c if c["links"] and _near(c["q"], FOLDED_Q) else None)(
         _state(d)["collision"]), "the folded arm's collision answer")
     assert "upper_arm_link" in state["links"] and "base_link" not in state["links"]
+    answer = httpx.post(f"{server}/models/ur5/collision", json={"q": state["q"]}).json()
+    assert state["pairs"] == answer["pairs"]  # the page shows the service's answer for the q drawn
     for link in state["links"]:
         colours = _colours(browser, link)
         assert colours and all(c == COLLIDING for c in colours), (link, colours)
     assert COLLIDING not in _colours(browser, "base_link")
     status = browser.find_element("id", "collision-status").text
     assert status.startswith("self-collision: links ") and "upper_arm_link" in status
+    browser.find_element("id", "btn-fit").click()
     _frames_drawn(browser)
     ARTIFACTS.mkdir(exist_ok=True)
     _canvas_image(browser).save(ARTIFACTS / "viewer_meshes.png")
+    browser.save_screenshot(str(ARTIFACTS / "viewer_meshes_page.png"))  # with the status line: docs/viewer_meshes.png
     # back to a free configuration: the red goes
     for joint in FOLDED:
         _set_slider(browser, joint, 0.0)
@@ -85,3 +88,30 @@ def test_a_colliding_configuration_turns_its_links_red(server, browser):
           "the stretched arm's collision answer")
     assert COLLIDING not in _colours(browser, "upper_arm_link")
     assert _severe_console(browser) == []
+
+
+LOADERS = ["STLLoader.js", "ColladaLoader.js", "OBJLoader.js"]
+
+
+def test_mesh_loaders_are_vendored_with_what_they_import():
+    """The loaders and every file they import are in vendor/addons/ (re-vendored by the script),
+    importing only `three` (the import map's) and each other by relative paths."""
+    import re
+
+    from tests.paths import REPO
+
+    addons = REPO / "app" / "static" / "viewer" / "vendor" / "addons"
+    script = (REPO / "scripts" / "vendor_threejs.sh").read_text()
+    todo, seen = [addons / "loaders" / name for name in LOADERS], set()
+    while todo:
+        path = todo.pop()
+        if path in seen:
+            continue
+        seen.add(path)
+        assert path.is_file(), path
+        assert path.name in script, f"scripts/vendor_threejs.sh does not copy {path.name}"
+        for spec in re.findall(r"""^import[^;]*?from\s+['"]([^'"]+)['"]""", path.read_text(), re.M | re.S):
+            if spec != "three":
+                assert spec.startswith("."), (path.name, spec)
+                todo.append((path.parent / spec).resolve())
+    assert len(seen) >= 6  # the three loaders, Collada's parser and composer, the TGA loader

@@ -137,7 +137,7 @@ export function modelSphere() {
   if (robot) {
     robot.updateMatrixWorld(true);
     for (const group of Object.values(linkGroups)) {
-      for (const child of group.children) if (child.isMesh) box.expandByObject(child);
+      for (const child of group.children) if (child.isMesh || child.userData.visual) box.expandByObject(child);
     }
   }
   if (cloud && cloud.visible) {
