@@ -90,6 +90,20 @@ def test_a_colliding_configuration_turns_its_links_red(server, browser):
     assert _severe_console(browser) == []
 
 
+@needs_browser
+def test_a_plain_upload_is_a_stick_figure(server, browser, catalogue):
+    """The UR5's URDF uploaded as a plain file names meshes the service never reads: no mesh is
+    fetched, the page says they are not drawn, and the skeleton is shown."""
+    r = httpx.post(f"{server}/models", content=catalogue.get("ur5").urdf.encode(),
+                   headers={"Content-Type": "application/xml"})
+    mid = r.json()["id"]
+    _open(browser, f"{server}/viewer/{mid}")
+    assert _state(browser)["meshes"] == {"expected": 0, "loaded": 0, "failed": 0, "errors": []}
+    assert "mesh visual(s) not drawn" in browser.find_element("id", "model-warnings").text
+    _wait(browser, lambda d: _state(d)["collision"]["responses"] >= 1, "the first self-collision answer")
+    assert _severe_console(browser) == []
+
+
 LOADERS = ["STLLoader.js", "ColladaLoader.js", "OBJLoader.js"]
 
 

@@ -94,6 +94,7 @@ export async function loadMeshes(robot, isCurrent) {
       object.scale.set(...v.scale);
       holder.add(object);
       state.meshes.loaded += 1;
+      if (lastPaint) colourLinks(...lastPaint);   // a mesh that arrives after the answer is painted too
     } catch (err) {
       if (!isCurrent()) return;
       state.meshes.failed += 1;
@@ -105,6 +106,7 @@ export async function loadMeshes(robot, isCurrent) {
 }
 
 // ---------------------------------------------------------------------------- colliding links
+let lastPaint = null;   // the arguments of the last colourLinks call
 const collidingMaterial = new THREE.MeshStandardMaterial({ color: COLLIDING_COLOR, roughness: 0.5, side: THREE.DoubleSide });
 
 /** The drawn meshes of one link group: its visuals (primitives and loaded meshes). */
@@ -117,12 +119,14 @@ function visualMeshes(group) {
 /** Draw the links in `names` red and every other link as it is: `linkGroups` link -> group,
  * `extra` link -> meshes standing for a link without visuals (the rod into it). */
 export function colourLinks(linkGroups, names, extra = {}) {
+  lastPaint = [linkGroups, names, extra];
   const red = new Set(names);
   for (const [link, group] of Object.entries(linkGroups)) {
-    const meshes = visualMeshes(group);
-    if (!meshes.length && extra[link]) meshes.push(...extra[link]);
-    for (const m of meshes) {
-      if (red.has(link)) {
+    const visuals = visualMeshes(group);
+    const painted = visuals.length ? visuals : (extra[link] || []);
+    const others = visuals.length ? (extra[link] || []) : [];   // the rod, once the link's mesh is drawn
+    for (const m of [...painted, ...others]) {
+      if (red.has(link) && painted.includes(m)) {
         if (m.userData.ownMaterial === undefined) m.userData.ownMaterial = m.material;
         m.material = collidingMaterial;
       } else if (m.userData.ownMaterial !== undefined) {
