@@ -12,7 +12,8 @@
 // which is what the IK target gizmo sends to POST /models/{id}/ik.
 //
 // The viewer is ES modules (no build step, relative imports): config.js, api.js, scene.js,
-// robot.js, ik.js, workspace.js, velocity.js, closed-forms.js, dh-editor.js, loader.js; this
+// robot.js, meshes.js (visuals and meshes), self-collision.js, ik.js, workspace.js, velocity.js,
+// closed-forms.js, dh-editor.js, loader.js; this
 // one, the entry point, wires the tabs and starts.
 
 import { ApiError, showError } from "./api.js";
