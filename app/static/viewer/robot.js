@@ -3,9 +3,9 @@
 
 import * as THREE from "three";
 import { api, showError } from "./api.js";
-import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, VISUAL_OPACITY, state } from "./config.js";
+import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_DIRECTION, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, state } from "./config.js";
 import { ik, ikBusy, placeTargetAtLink } from "./ik.js";
-import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry, visualObject } from "./scene.js";
+import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
 import { requestVelocity } from "./velocity.js";
 import { cloud } from "./workspace.js";
 import { colourLinks, hasServedMeshes, linkColours, linkVisuals, loadMeshes, resetMeshState } from "./meshes.js";
