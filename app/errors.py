@@ -47,6 +47,7 @@ from kinematics.errors import (
     TaskError,
     TimeBudgetError,
     UnknownLinkError,
+    UnknownMeshError,
     UnknownModelError,
     URDFError,
 )
@@ -74,6 +75,7 @@ class RequestIdFilter(logging.Filter):
 KINEMATICS_ERRORS: tuple[tuple[type[KinematicsError], int, str, str], ...] = (
     (UnknownModelError, 404, "unknown-model", "Unknown model"),
     (UnknownLinkError, 404, "unknown-link", "Unknown link"),
+    (UnknownMeshError, 404, "unknown-mesh", "Unknown visual mesh"),
     (TimeBudgetError, 503, "time-budget-exceeded", "Over the time budget"),
     (CancelledError, 499, "cancelled", "Cancelled: the client went away"),
     (BudgetError, 413, "too-large", "Content too large"),

@@ -50,6 +50,11 @@ class UnknownLinkError(KinematicsError):
     """A link name that the model does not have."""
 
 
+class UnknownMeshError(KinematicsError):
+    """A visual mesh index that the model does not serve (out of range, not a number, or a mesh
+    that is never read: a plain upload's)."""
+
+
 class UnknownModelError(KinematicsError):
     """A model id that the catalogue does not have."""
 

@@ -35,12 +35,18 @@ fi
 cp "$PKG/examples/jsm/controls/OrbitControls.js" "$DEST/addons/controls/"
 # The IK target gizmo (a translate / rotate handle on the selected link).
 cp "$PKG/examples/jsm/controls/TransformControls.js" "$DEST/addons/controls/"
+# The mesh loaders of the robot's visuals (STL, Collada, OBJ) and what they import: the
+# Collada loader's parser and composer, and the TGA loader for Collada textures.
+mkdir -p "$DEST/addons/loaders/collada"
+for f in STLLoader.js ColladaLoader.js OBJLoader.js TGALoader.js collada/ColladaParser.js collada/ColladaComposer.js; do
+    cp "$PKG/examples/jsm/loaders/$f" "$DEST/addons/loaders/$f"
+done
 cp "$PKG/LICENSE" "$DEST/LICENSE"
 cat > "$DEST/README.md" <<NOTE
 three.js $THREE_VERSION (MIT licence, see LICENSE), copied from the npm package \`three\`
 by scripts/vendor_threejs.sh. Do not edit these files; rerun the script to update them.
 NOTE
-# OrbitControls and TransformControls import only 'three': the import map resolves it, so no
-# rewriting is needed.
+# The addons import only 'three' (which the import map resolves) and each other by relative
+# paths, kept as in the package: no rewriting is needed.
 echo "vendored three@$THREE_VERSION into $DEST:"
 (cd "$DEST" && find . -path ./katex -prune -o -type f -print | sort)

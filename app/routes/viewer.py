@@ -3,7 +3,10 @@
 ``GET /viewer`` and ``GET /viewer/{id}`` return the page; ``GET /viewer/static/{path}``
 its files (HTML, JS, CSS and vendored copies of three.js and KaTeX, see
 ``scripts/vendor_threejs.sh`` and ``scripts/vendor_katex.sh``); ``GET /viewer/api/{id}/visuals`` the primitive visual
-geometry of a model's links, which the model info does not carry. The page does no
+geometry of a model's links, which the model info does not carry. The page draws the links'
+visuals from ``GET /models/{id}/visual`` (meshes parsed by three.js's vendored STL, Collada and OBJ
+loaders from ``/models/{id}/visual/meshes/{index}``, :mod:`app.routes.visual`) and paints the links
+in self-collision red (``POST /models/{id}/collision``). It does no
 kinematics itself: it calls ``POST /models/{id}/fk``, ``/jacobian`` and, for its draggable IK
 target (three.js's ``TransformControls``, vendored too), ``/ik``; its "Closed form" tab and DH
 editor ``POST /models/{id}/symbolic`` and ``/symbolic/dh`` (LaTeX typeset by KaTeX).
@@ -82,7 +85,8 @@ def _page(request: Request, model_id: str) -> HTMLResponse:
 
 @router.get("/viewer", response_class=HTMLResponse, summary="Model viewer page")
 def viewer_page(request: Request) -> HTMLResponse:
-    """A page that draws a model in 3D (links as axis triads, joints, primitive visuals), with a
+    """A page that draws a model in 3D (links as axis triads, joints, visuals: catalogue models'
+    meshes; colliding links red), with a
     slider per joint, the pose and manipulability of a chosen link, a draggable IK target for
     that link, and a DH table editor."""
     return _page(request, "")

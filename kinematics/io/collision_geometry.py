@@ -284,6 +284,38 @@ class ArchiveMeshes(MeshSource):
         return cls(files, manifest.get("packages") or {}, manifest.get("base") or "", manifest.get("extracted_root"))
 
 
+def model_meshes(model: RobotModel) -> MeshSource:
+    """Where ``model``'s meshes may be read from: the source vouched for it (or for the model a
+    floating-base form was made from), else nowhere (:class:`MeshSource`, which reads nothing)."""
+    source = mesh_source(model)
+    if source is None and model.base_model is not None:  # a floating-base form shares its model's meshes
+        source = mesh_source(model.base_model)
+    return source if source is not None else MeshSource()
+
+
+def resolve_mesh(source: MeshSource, filename: str) -> tuple[Path | None, bytes | None, str]:
+    """``(path, data, format)`` of the mesh ``filename`` names, as ``source`` allows it (one of
+    ``path``, ``data`` set; ``format`` ``stl``, ``obj`` or ``dae``). Raises :class:`LookupError`
+    saying why it is not read: a format other than :data:`MESH_SUFFIXES`, a name the source
+    refuses, bytes over :data:`MAX_MESH_BYTES`. Opens nothing (a catalogue file is only stat'ed).
+
+    >>> resolve_mesh(MeshSource(), "package://pkg/arm.stl")
+    Traceback (most recent call last):
+    ...
+    LookupError: a plain URDF's meshes are never read; upload an archive with the mesh inside
+    """
+    suffix = posixpath.splitext(filename)[1].lower()
+    if suffix not in MESH_SUFFIXES:
+        if source.name == "none":  # a plain upload says why first: nothing is read
+            source.resolve(filename)
+        raise LookupError(f"format {suffix or 'unknown'}; only "
+                          f"{', '.join(s[1:].upper() for s in MESH_SUFFIXES)} are read")
+    path, data = source.resolve(filename)
+    if data is not None and len(data) > MAX_MESH_BYTES:
+        raise LookupError(f"larger than {MAX_MESH_BYTES} bytes")
+    return path, data, suffix[1:]
+
+
 def _numbers(text: str | None, n: int, default: tuple[float, ...], what: str) -> tuple[float, ...]:
     if text is None:
         return default
@@ -323,11 +355,7 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
     """The collision shapes of ``model`` (see the module doc); ``meshes`` says where meshes may be
     read from (None: the source vouched for the model, else nowhere -- a plain upload). Never
     raises for a bad element: it is skipped and named in ``warnings``."""
-    if meshes is None:
-        meshes = mesh_source(model)
-        if meshes is None and model.base_model is not None:  # a floating-base form shares its model's meshes
-            meshes = mesh_source(model.base_model)
-    source = meshes if meshes is not None else MeshSource()
+    source = meshes if meshes is not None else model_meshes(model)
     try:
         root = _read_xml(model.urdf.encode("utf-8"))
     except URDFError:
@@ -357,21 +385,12 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
             except (ValueError, TypeError) as exc:
                 warnings.append(f"link {lname!r}: <collision> skipped ({exc})")
                 continue
-            suffix = posixpath.splitext(filename)[1].lower()
             try:
-                if suffix not in MESH_SUFFIXES:
-                    if source.name == "none":  # a plain upload says why first: nothing is read
-                        source.resolve(filename)
-                    raise LookupError(f"format {suffix or 'unknown'}; only "
-                                      f"{', '.join(s[1:].upper() for s in MESH_SUFFIXES)} are read")
-                path, data = source.resolve(filename)
+                path, data, fmt = resolve_mesh(source, filename)
             except LookupError as why:
-                warnings.append(f"link {lname!r}: mesh {filename!r} not opened ({why})")
+                warnings.append(f"link {lname!r}: mesh {filename!r} not {'read' if 'larger' in str(why) else 'opened'} ({why})")
                 continue
-            if data is not None and len(data) > MAX_MESH_BYTES:
-                warnings.append(f"link {lname!r}: mesh {filename!r} not read (larger than {MAX_MESH_BYTES} bytes)")
-                continue
-            per_link.setdefault(lname, []).append(Shape("mesh", origin, scale, filename, path, data, suffix[1:]))
+            per_link.setdefault(lname, []).append(Shape("mesh", origin, scale, filename, path, data, fmt))
     ordered = {name: tuple(per_link[name]) for name in model.links if name in per_link}
     return CollisionGeometry(ordered, tuple(warnings), source.name)
 

@@ -37,6 +37,7 @@ from .symbolic import (DEFAULT_SYMBOLIC_TIMEOUT, SYMBOLIC_FORMATS, SYMBOLIC_WHAT
                        symbolic_dh)
 from .task import TaskAnswer, task
 from .velocity import VelocityAnswer, velocity
+from .visual import visual_geometry, visual_mesh
 from .workspace import workspace
 
 __all__ = [
@@ -47,4 +48,5 @@ __all__ = [
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",
     "SYMBOLIC_WHAT", "SymbolicAnswer", "symbolic", "symbolic_dh", "TaskAnswer", "task", "VelocityAnswer", "velocity",
     "workspace", "CollisionAnswer", "collision", "collision_free", "collision_matrix",
+    "visual_geometry", "visual_mesh",
 ]

@@ -62,9 +62,10 @@ needs_browser = pytest.mark.skipif(_skip_reason() is not None, reason=_skip_reas
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    """Base URL of a uvicorn serving ``app.main:app`` with an empty temporary data directory."""
+    """Base URL of a uvicorn serving ``app.main:app`` with an empty temporary data directory (the
+    page checks self-collision as it moves: allowed-collision matrices from few samples, quick)."""
     tmp = tmp_path_factory.mktemp("viewer")
-    with LiveServer(tmp / "data", tmp / "uvicorn.log") as live:
+    with LiveServer(tmp / "data", tmp / "uvicorn.log", env={"KIN_COLLISION_SAMPLES": "500"}) as live:
         yield live.url
 
 
@@ -194,7 +195,10 @@ def test_ur5_draws_moves_and_reports_the_pose(server, browser):
     _set_slider(browser, "elbow_joint", 1.0)
     _set_slider(browser, "wrist_2_joint", 0.8)  # off the wrist singularity (wrist_2 = 0)
     _wait(browser, lambda d: _panel(d)["pose-position"] != before_panel["pose-position"], "the pose panel to change")
-    _wait(browser, lambda d: _state(d)["fkResponses"] == _state(d)["fkRequests"], "the last FK answer")
+    # the last FK answer: the one for the sliders' final values (an FK request queued behind the
+    # first is sent once that answer is drawn, so equal counts alone may come too early)
+    _wait(browser, lambda d: _state(d)["fkResponses"] == _state(d)["fkRequests"] and _state(d)["lastQ"] == d.execute_script(
+        "return [...document.querySelectorAll('#sliders input')].map(i => +i.value)"), "the last FK answer")
     state = _state(browser)
     assert state["fkRequests"] > requests_before
 

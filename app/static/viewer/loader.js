@@ -6,7 +6,7 @@ import { fillClosedFormTips } from "./closed-forms.js";
 import { $, API_KEY_STORAGE, FIT_DIRECTION, FK_LINKS_ALL, ROOT, state } from "./config.js";
 import { ik, resetIkTarget } from "./ik.js";
 import { clearPath } from "./path.js";
-import { applyPoses, buildRobot, buildSliders, fitCamera, highlightSelected, initialValue, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
+import { applyPoses, buildRobot, checkCollision, buildSliders, fitCamera, highlightSelected, initialValue, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
 import { requestRender, resize } from "./scene.js";
 import { buildQdotInputs } from "./velocity.js";
 import { clearWorkspace } from "./workspace.js";
@@ -84,7 +84,7 @@ export async function loadModel(id, { push = true } = {}) {
     const info = await api(`/models/${encodeURIComponent(id)}`);
     let visuals = {};
     try {
-      visuals = (await api(`/viewer/api/${encodeURIComponent(id)}/visuals`)).visuals || {};
+      visuals = (await api(`/models/${encodeURIComponent(id)}/visual`)).links || {};
     } catch (err) {
       showError(err);                    // the skeleton is still worth showing
     }
@@ -104,6 +104,7 @@ export async function loadModel(id, { push = true } = {}) {
     fillClosedFormTips(info);
     buildRobot(info, visuals, fk.poses);
     applyPoses(fk.poses);
+    checkCollision(q);
     resize();
     fitCamera(FIT_DIRECTION);
     clearWorkspace();
@@ -112,9 +113,9 @@ export async function loadModel(id, { push = true } = {}) {
     showOutOfLimits(fk.out_of_limits || []);
     $("model-picker").value = model.id;
     $("model-summary").textContent = `${info.name || model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;
-    const meshCount = Object.values(visuals).flat().filter((v) => v.kind === "mesh").length;
+    const meshCount = Object.values(visuals).flat().filter((v) => v.kind === "mesh" && !v.url).length;
     const notes = [...(info.warnings || [])];
-    if (meshCount) notes.push(`${meshCount} mesh visual(s) not drawn (meshes are never loaded).`);
+    if (meshCount) notes.push(`${meshCount} mesh visual(s) not drawn (the service serves them not).`);
     $("model-warnings").hidden = notes.length === 0;
     $("model-warnings").textContent = notes.join(" ");
     $("download-urdf").disabled = false;

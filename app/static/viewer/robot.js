@@ -3,12 +3,14 @@
 
 import * as THREE from "three";
 import { api, showError } from "./api.js";
-import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, VISUAL_OPACITY, state } from "./config.js";
+import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_DIRECTION, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, state } from "./config.js";
 import { ghostRoot } from "./ghosts.js";
 import { ik, ikBusy, placeTargetAtLink } from "./ik.js";
-import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry, visualObject } from "./scene.js";
+import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
 import { requestVelocity } from "./velocity.js";
 import { cloud } from "./workspace.js";
+import { colourLinks, hasServedMeshes, linkColours, linkVisuals, loadMeshes, resetMeshState } from "./meshes.js";
+import { requestCollision, resetCollision } from "./self-collision.js";
 
 // ---------------------------------------------------------------------------- model state
 export let grid = null;                          // ground grid in the world xy plane
@@ -65,9 +67,9 @@ export function buildRobot(info, visuals, poses) {
     y: new THREE.MeshBasicMaterial({ color: COLORS.y }),
     z: new THREE.MeshBasicMaterial({ color: COLORS.z }),
   };
-  const visualMaterial = new THREE.MeshStandardMaterial({
-    color: 0x8fa3bf, transparent: true, opacity: VISUAL_OPACITY, depthWrite: false, side: THREE.DoubleSide,
-  });
+  // Drawn as it looks when the service serves its meshes: then primitives are solid too; else
+  // primitives semi-transparent over the skeleton (a mesh without a URL is not drawn).
+  const solid = hasServedMeshes(visuals);
   for (const link of info.links) {
     const group = new THREE.Group();
     group.matrixAutoUpdate = false;
@@ -75,10 +77,7 @@ export function buildRobot(info, visuals, poses) {
     const triad = makeTriad(triadLength, triadGeometries, triadMaterials);
     triad.name = "triad";
     group.add(triad);
-    for (const v of (visuals && visuals[link]) || []) {
-      const mesh = visualObject(v, visualMaterial);
-      if (mesh) group.add(mesh);
-    }
+    for (const object of linkVisuals(visuals && visuals[link], solid)) group.add(object);
     linkGroups[link] = group;
     robot.add(group);
   }
@@ -93,6 +92,7 @@ export function buildRobot(info, visuals, poses) {
   for (const joint of info.joints) {
     const mesh = new THREE.Mesh(rodGeometry, boneMaterial);
     const ball = new THREE.Mesh(ballGeometry, boneMaterial);
+    mesh.userData.link = joint.child;     // stands for its child link when that has no visual
     bones.push({ joint, mesh, ball });
     robot.add(mesh, ball);
   }
@@ -115,6 +115,10 @@ export function buildRobot(info, visuals, poses) {
     robot.add(arrow);
   }
   scene.add(robot);
+  resetMeshState();
+  resetCollision();
+  const built = robot;
+  loadMeshes(built, () => robot === built);
 
   // Ground grid (1 2 5 steps) and world axes scaled to the model.
   if (grid) { scene.remove(grid); grid.geometry.dispose(); grid.material.dispose(); }
@@ -134,7 +138,7 @@ export function modelSphere() {
   if (robot) {
     robot.updateMatrixWorld(true);
     for (const group of Object.values(linkGroups)) {
-      for (const child of group.children) if (child.isMesh) box.expandByObject(child);
+      for (const child of group.children) if (child.isMesh || child.userData.visual) box.expandByObject(child);
     }
   }
   if (cloud && cloud.visible) {
@@ -215,6 +219,26 @@ export function highlightSelected() {
     if (triad) triad.scale.setScalar(modelSize * TRIAD_FRACTION * (link === state.selectedLink ? SELECTED_TRIAD_SCALE : 1));
   }
 }
+
+// ---------------------------------------------------------------------------- self-collision
+/** Link -> the rods into it: what is drawn red for a link without visuals (a stick figure). */
+function bonesByLink() {
+  const out = {};
+  for (const { mesh } of bones) (out[mesh.userData.link] ||= []).push(mesh);
+  return out;
+}
+
+/** Ask whether configuration `q` (the one drawn) is in self-collision; its colliding links turn red. */
+export function checkCollision(q) {
+  if (!model || !robot) return;
+  const built = robot;
+  requestCollision(model.id, q, (links) => colourLinks(linkGroups, links, bonesByLink()), () => robot === built);
+}
+
+// Test hook: the colours (hex numbers) a link's visuals (or its rod) are drawn in now.
+window.viewerDebug = Object.assign(window.viewerDebug || {}, {
+  linkColours: (link) => linkColours(linkGroups, link, bonesByLink()),
+});
 
 // ---------------------------------------------------------------------------- sliders
 export function fmt(x, digits = DIGITS) {
@@ -327,6 +351,7 @@ export async function runFk() {
     state.fkResponses += 1;
     state.lastQ = q;
     applyPoses(answer.poses);
+    checkCollision(q);
     if (snapTargetAfterFk && !fkPending) {
       snapTargetAfterFk = false;
       if (ik.enabled && !gizmo.dragging && !ikBusy()) placeTargetAtLink();

@@ -12,9 +12,9 @@
 // which is what the IK target gizmo sends to POST /models/{id}/ik.
 //
 // The viewer is ES modules (no build step, relative imports): config.js, api.js, scene.js,
-// robot.js, ik.js (with ghosts.js, every IK solution, and path.js, Cartesian paths), workspace.js,
-// velocity.js, closed-forms.js, dh-editor.js, loader.js, calibration.js; this one, the entry
-// point, wires the tabs and starts.
+// robot.js, meshes.js (visuals and meshes), self-collision.js, ik.js (with ghosts.js, every IK
+// solution, and path.js, Cartesian paths), workspace.js, velocity.js, closed-forms.js, dh-editor.js,
+// loader.js, calibration.js; this one, the entry point, wires the tabs and starts.
 
 import { ApiError, showError } from "./api.js";
 import "./calibration.js";
