@@ -41,12 +41,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import ik_closed, ik_fast
+from ..engine import ik_closed, ik_fast, ik_polish
 from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
-from ..spatial.transforms import exp_screws, inverse_transform
+from ..spatial.transforms import inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain
@@ -172,35 +172,6 @@ def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
     return lo + u * (hi - lo)
 
 
-def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
-    ideal = fam.ideal
-    targets = inverse_transform(T_root) if fam.reversed else T_root
-    G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer
-    N = G.shape[0]
-    Q = np.zeros((N, ik_closed.MAX_CANDIDATES, 6))
-    count = np.zeros(N, dtype=np.int64)
-    flag = np.zeros((N, ik_closed.MAX_CANDIDATES), dtype=np.int64)
-    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
-    if spread is None:
-        spread = NEAR_SPREAD if fam.near else 0.0
-    centre = np.ascontiguousarray(fam.centre)
-
-    def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
-        if fam.kernel == "spherical_wrist_search":
-            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, Q[a:b], count[a:b], flag[a:b])
-        elif fam.kernel == "spherical_wrist":
-            ik_fast.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
-                                    Q[a:b], count[a:b], flag[a:b])
-        else:
-            ik_fast.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
-
-    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
-    if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
-        Q = -Q[:, :, ::-1]
-    return Q, count
-
-
 def _wrap_revolute(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray:
     q = q.copy()
     cols = chain.columns[chain.revolute]
@@ -274,67 +245,31 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     for name, v in chain.locked.items():
         base_q[:, model.q_index[name]] = v
     if use_closed:
-        cand, counts = _closed_form_candidates(fam, T_root)
-        steps, damped = (NEAR_STEPS if fam.near else POLISH_STEPS), False
+        # candidates, polish, check, duplicates and flags in one compiled pass per target
+        Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(model, poe, chain, fam, T_root, base_q,
+                                                                          position_tolerance, rotation_tolerance)
+        if fam.near:
+            short = np.flatnonzero(found < nominal)
+        if not (fam.near and short.size) and limits == "ignore" and seed is None:
+            K = int(found.max(initial=0))
+            sing = sing[:, :K]
+            undecided = np.nonzero(sing == 2)
+            singular = np.zeros(sing.shape, bool)
+            if undecided[0].size:
+                J = poe.jacobian(np.ascontiguousarray(Qk[undecided]), link, "local_world_aligned", tool=tool)
+                singular[undecided] = _singular(J[:, :, chain.columns])
+            return AllSolutions(Qk[:, :K].copy(), found, within[:, :K].copy(), singular, pe[:, :K].copy(),
+                                re[:, :K].copy(), fam, "analytic" if fam.closed_form else "search",
+                                found >= nominal if fam.near else np.ones(N, bool))
+        slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
+        rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
-        seeds = _search_seeds(model, chain, search_seeds)
-        cand = np.broadcast_to(seeds, (N,) + seeds.shape)
-        counts = np.full(N, len(seeds))
-        steps, damped = SEARCH_STEPS, True
-    owner = np.repeat(np.arange(N), counts)
-    Q = base_q[owner].copy()
-    rows = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
-    Q[:, chain.columns] = rows
-    Tt = T_root[owner]
-    if len(Q) and not damped:
-        # the closed form: measure once, polish only the rows not yet on a solution (most are)
-        Q = _wrap_revolute(model, chain, Q)
-        finite = np.all(np.isfinite(Q), axis=1)
-        p0, r0 = pose_errors(poe.fk(np.where(finite[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
-        todo = np.flatnonzero(finite & ~((p0 <= TIGHT) & (r0 <= TIGHT)))
-        if todo.size:
-            Q[todo] = newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool, position_only, False)
-    elif len(Q):
-        Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
-        if damped:  # then undamped steps on the rows that came near a solution: quadratic convergence onto it
-            e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
-            near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
-            Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
-    Q = _wrap_revolute(model, chain, Q)
-    ok = np.zeros(len(Q), bool)
-    if len(Q):
-        ok = np.all(np.isfinite(Q), axis=1)
-        if not damped:  # measured above; again only where Newton moved a row
-            p, r = p0, r0
-            if todo.size:
-                p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
-                                               Tt[todo])
-        else:
-            p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
-        # rows near a solution but not on it to machine precision (a double root where two branches
-        # meet converges only linearly): more Newton steps before the check
-        slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
-                              & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
-        if slow.size:
-            # (an exact closed form lands on its solutions: a few steps are enough there)
-            final = POLISH_STEPS if use_closed and not fam.near else FINAL_STEPS
-            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, final, tool,
-                                                          position_only, False))
-            p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
-        ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-    keep = np.zeros(len(Q), bool)
-    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
-    rows, owner = Q[keep], owner[keep]
-    # the errors measured on these very rows (None: measured again in _pack, after any change of rows)
-    errors = (p[keep], r[keep]) if len(Q) else None
+        rows, owner, errors = _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
+                                      position_tolerance, rotation_tolerance, model)
     complete = np.ones(N, bool)
     if use_closed and fam.near:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
         # lost by a singularity or the edge of the reach), the search joins in for that target
-        found = np.bincount(owner, minlength=N)
-        nominal = _nominal_counts(fam, T_root, position_tolerance, rotation_tolerance)
-        short = np.flatnonzero(found < nominal)
         if short.size:
             extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
                                   method="numeric", mode=mode, position_tolerance=position_tolerance,
@@ -368,36 +303,100 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                  complete, position_only, errors)
 
 
+def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only, position_tolerance,
+            rotation_tolerance, model):
+    """The multistart search: rows (R, dof), owner (R,) and their (position, rotation) errors."""
+    N = len(T_root)
+    seeds = _search_seeds(model, chain, search_seeds)
+    owner = np.repeat(np.arange(N), len(seeds))
+    Q = base_q[owner].copy()
+    Q[:, chain.columns] = np.tile(seeds, (N, 1))
+    Tt = T_root[owner]
+    if not len(Q):
+        return Q, owner, None
+    Q = newton(poe, link, Q, Tt, chain.columns, SEARCH_STEPS, tool, position_only, True)
+    # then undamped steps on the rows that came near a solution: quadratic convergence onto it
+    e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
+    near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
+    Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
+    Q = _wrap_revolute(model, chain, Q)
+    ok = np.all(np.isfinite(Q), axis=1)
+    p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+    # rows near a solution but not on it to machine precision (a double root where two branches
+    # meet converges only linearly): more Newton steps before the check
+    slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
+                          & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
+    if slow.size:
+        Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
+                                                      position_only, False))
+        p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
+    ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    starts = (np.arange(N + 1) * len(seeds)).astype(np.intp)
+    keep = np.zeros(len(Q), bool)
+    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    return Q[keep], owner[keep], (p[keep], r[keep])
+
+
+def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tolerance, rotation_tolerance):
+    """Every solution by the family's compiled kernel and :func:`kinematics.engine.ik_polish.polish`,
+    targets split over the engine's threads: q (N, C, dof) NaN-padded, count (N,), position and
+    rotation errors (N, C), within_limits (N, C), singular (N, C: 0 regular, 2 undecided) and the
+    ideal chain's counts (N,; a near family, else None)."""
+    ideal = fam.ideal
+    goals = inverse_transform(T_root) if fam.reversed else T_root
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))  # row by row: a target alone gets its batch answer
+    N, C, dof = G.shape[0], ik_closed.MAX_CANDIDATES, model.dof
+    cand = np.empty((N, C, 6))
+    ccount = np.zeros(N, dtype=np.int64)
+    flag = np.zeros((N, C), dtype=np.int64)
+    Qk = np.empty((N, C, dof))
+    found = np.zeros(N, dtype=np.int64)
+    pe, re = np.empty((N, C)), np.empty((N, C))
+    within = np.zeros((N, C), bool)
+    sing = np.zeros((N, C), np.int8)
+    nominal = np.zeros(N, dtype=np.int64) if fam.near else None
+    cand0 = np.empty((N, C, 6)) if fam.near else None
+    count0 = np.zeros(N, dtype=np.int64)
+    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
+    centre = np.ascontiguousarray(fam.centre)
+    prismatic3 = not bool(ideal.revolute[2])
+    T_root = np.ascontiguousarray(T_root)
+    goals = np.ascontiguousarray(goals)
+    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
+            np.ascontiguousarray(chain.M))
+    ideal_chain = (h, r, np.ascontiguousarray(ideal.revolute), np.ascontiguousarray(ideal.M))
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+    steps = NEAR_STEPS if fam.near else POLISH_STEPS
+    final = FINAL_STEPS if fam.near else POLISH_STEPS
+
+    def candidates(a, b, width, out, n):
+        if fam.kernel == "spherical_wrist_search":
+            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, out[a:b], n[a:b], flag[a:b])
+        elif fam.kernel == "spherical_wrist":
+            ik_fast.spherical_wrist(G[a:b], h, r, prismatic3, centre, fam.position, width, out[a:b], n[a:b], flag[a:b])
+        else:
+            ik_fast.three_parallel(G[a:b], h, r, centre, width, out[a:b], n[a:b], flag[a:b])
+
+    def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
+        candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
+        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, TIGHT, final,
+                         position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
+                         a, b, Qk, found, pe, re, within, sing)
+        if fam.near:
+            candidates(a, b, 0.0, cand0, count0)
+            ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
+                              a, b, nominal)
+
+    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
+    return Qk, found, pe, re, within, sing, nominal
+
+
 def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
     """Rows of ``Q`` (K, dof) with the joints off the chain taken from ``base`` (dof,)."""
     out = np.repeat(base[None], len(Q), 0)
     out[:, chain.columns] = Q[:, chain.columns]
     return out
-
-
-def _nominal_counts(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> np.ndarray:
-    """How many distinct solutions the *ideal* chain has for each target (N,): its closed form's
-    candidates that meet the tolerances on the ideal chain's own FK."""
-    cand, counts = _closed_form_candidates(fam, T_root, 0.0)
-    N = len(T_root)
-    owner = np.repeat(np.arange(N), counts)
-    c = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, 6))
-    if fam.reversed:
-        c = -c[:, ::-1]  # back to the ideal (reversed) chain's own joint values
-    ideal = fam.ideal
-    E = exp_screws(ideal.h, ideal.r, ideal.revolute, c)
-    F = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
-    for j in range(ideal.n):
-        F = np.einsum("nij,njk->nik", F, E[:, j])
-    F = np.einsum("nij,jk->nik", F, ideal.M)
-    goal = (inverse_transform(T_root) if fam.reversed else T_root)[owner]
-    p, r = pose_errors(F, goal)
-    ok = np.isfinite(p) & (p <= position_tolerance) & (r <= rotation_tolerance)
-    keep = np.zeros(len(c), bool)
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-    ik_closed.distinct_rows(np.ascontiguousarray(c), ok, starts, np.arange(ideal.n, dtype=np.intp), ideal.revolute,
-                            DUPLICATE, keep)
-    return np.bincount(owner[keep], minlength=N)
 
 
 def _singular(J: np.ndarray) -> np.ndarray:
