@@ -308,6 +308,8 @@ def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
     """The multistart search: rows (R, dof), owner (R,) and their (position, rotation) errors."""
     N = len(T_root)
     seeds = _search_seeds(model, chain, search_seeds)
+    if not position_only and not chain.mimic:
+        return _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance)
     owner = np.repeat(np.arange(N), len(seeds))
     Q = base_q[owner].copy()
     Q[:, chain.columns] = np.tile(seeds, (N, 1))
@@ -335,6 +337,33 @@ def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
     keep = np.zeros(len(Q), bool)
     ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
     return Q[keep], owner[keep], (p[keep], r[keep])
+
+
+def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
+    """The multistart search of a pose in :func:`kinematics.engine.ik_polish.polish` (damped LM from
+    every seed, then undamped steps near a solution), targets on the engine's threads."""
+    N, S, dof = len(T_root), len(seeds), model.dof
+    cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, chain.n))
+    ccount = np.full(N, S, dtype=np.int64)
+    Qk = np.empty((N, S, dof))
+    found = np.zeros(N, dtype=np.int64)
+    pe, re = np.empty((N, S)), np.empty((N, S))
+    within = np.zeros((N, S), bool)
+    sing = np.zeros((N, S), np.int8)
+    T_root = np.ascontiguousarray(T_root)
+    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
+            np.ascontiguousarray(chain.M))
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+
+    def rows(a: int, b: int) -> None:
+        ik_polish.polish(cand, ccount, False, T_root, base_q, cols, *real, SEARCH_STEPS, 1e-2, True, 6 * POLISH_STEPS,
+                         TIGHT, FINAL_STEPS, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
+                         LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
+
+    run_rows(rows, N, min_rows=1, piece_rows=1)
+    slot = np.arange(S)[None, :] < found[:, None]
+    return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
 
 
 def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tolerance, rotation_tolerance):
@@ -380,7 +409,7 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
 
     def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
         candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
-        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, TIGHT, final,
+        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final,
                          position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
                          a, b, Qk, found, pe, re, within, sing)
         if fam.near:

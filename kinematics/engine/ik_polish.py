@@ -39,6 +39,8 @@ _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 
 #: a squared pose error below this is converged
 CONVERGED = 1e-28
+#: a squared pose error below this whose next step is refused is at the rounding floor (Newton stops)
+FLOOR = 1e-26
 
 
 @nb.njit(**_JIT)
@@ -200,6 +202,8 @@ def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R
             cost = cost2
             lam = max(lam / 4.0, 1e-15)
         else:  # refused: back to the frames and error at x
+            if cost <= FLOOR:  # on the solution to rounding: no step lowers the error any more
+                break
             lam = min(lam * 8.0, 1e6)
             chain_fk(h, r, rev, M, x, F, W, O)
             cost = pose_error(F, T, e, R, out)
@@ -236,9 +240,11 @@ def det_bound(J, A):
 
 
 @nb.njit(**_JIT)
-def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps, lam0, damped, tight, final,
+def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps, lam0, damped, middle, tight, final,
            ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
-    """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs."""
+    """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs.
+    ``damped`` (a search from seeds): LM from λ = ``lam0`` with steps of at most 0.5 per joint, then
+    ``middle`` undamped steps for a row that came within 1e-2 of a solution."""
     n = h.shape[0]
     C = Q.shape[1]
     dof = base.shape[1]
@@ -275,7 +281,11 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
             p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
             q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
             if not (p <= tight and q <= tight):
-                levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A, bb, dq, trial)
+                cost = levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A, bb, dq,
+                                           trial)
+                if damped and cost < 1e-4 and middle > 0:  # near a solution: undamped steps, quadratic convergence
+                    levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq,
+                                        trial)
                 wrap(x, rev)
                 chain_fk(h, r, rev, M, x, F, W, O)
                 pose_error(F, T, e, R, out)
