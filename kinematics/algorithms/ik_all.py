@@ -55,6 +55,9 @@ LIMIT_POLICIES = ("respect", "ignore")
 METHODS = ("auto", "analytic", "numeric")
 #: Newton steps on the real model after the closed form (exact family, near family) and in the search
 POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 60, 100
+#: an exact family's candidate further than this (m + rad) from its target is the least-squares point of
+#: a branch that does not exist (the closed form is the chain's own to 1e-9): it is not polished
+EXACT_REACH = 1e-4
 #: a near family's least-squares branch points are seeded this far (rad or m) on either side
 NEAR_SPREAD = 0.05
 #: seeds of the multistart search (per target)
@@ -252,13 +255,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             short = np.flatnonzero(found < nominal)
         if not (fam.near and short.size) and limits == "ignore" and seed is None:
             K = int(found.max(initial=0))
-            sing = sing[:, :K]
-            undecided = np.nonzero(sing == 2)
-            singular = np.zeros(sing.shape, bool)
-            if undecided[0].size:
-                J = poe.jacobian(np.ascontiguousarray(Qk[undecided]), link, "local_world_aligned", tool=tool)
-                singular[undecided] = _singular(J[:, :, chain.columns])
-            return AllSolutions(Qk[:, :K].copy(), found, within[:, :K].copy(), singular, pe[:, :K].copy(),
+            return AllSolutions(Qk[:, :K].copy(), found, within[:, :K].copy(), sing[:, :K] == 1, pe[:, :K].copy(),
                                 re[:, :K].copy(), fam, "analytic" if fam.closed_form else "search",
                                 found >= nominal if fam.near else np.ones(N, bool))
         slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
@@ -358,7 +355,7 @@ def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, ro
 
     def rows(a: int, b: int) -> None:
         ik_polish.polish(cand, ccount, False, T_root, base_q, cols, *real, SEARCH_STEPS, 1e-2, True, 6 * POLISH_STEPS,
-                         TIGHT, FINAL_STEPS, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
+                         TIGHT, FINAL_STEPS, np.inf, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
                          LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
 
     run_rows(rows, N, min_rows=1, piece_rows=1)
@@ -369,7 +366,7 @@ def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, ro
 def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tolerance, rotation_tolerance):
     """Every solution by the family's compiled kernel and :func:`kinematics.engine.ik_polish.polish`,
     targets split over the engine's threads: q (N, C, dof) NaN-padded, count (N,), position and
-    rotation errors (N, C), within_limits (N, C), singular (N, C: 0 regular, 2 undecided) and the
+    rotation errors (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular) and the
     ideal chain's counts (N,; a near family, else None)."""
     ideal = fam.ideal
     goals = inverse_transform(T_root) if fam.reversed else T_root
@@ -382,7 +379,7 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
     found = np.zeros(N, dtype=np.int64)
     pe, re = np.empty((N, C)), np.empty((N, C))
     within = np.zeros((N, C), bool)
-    sing = np.zeros((N, C), np.int8)
+    sing = np.zeros((N, C), np.int8)  # 1: singular
     nominal = np.zeros(N, dtype=np.int64) if fam.near else None
     cand0 = np.empty((N, C, 6)) if fam.near else None
     count0 = np.zeros(N, dtype=np.int64)
@@ -398,6 +395,7 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
     lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
     steps = NEAR_STEPS if fam.near else POLISH_STEPS
     final = FINAL_STEPS if fam.near else POLISH_STEPS
+    reach = np.inf if fam.near else EXACT_REACH
 
     def candidates(a, b, width, out, n):
         if fam.kernel == "spherical_wrist_search":
@@ -409,7 +407,7 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
 
     def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
         candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
-        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final,
+        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final, reach,
                          position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
                          a, b, Qk, found, pe, re, within, sing)
         if fam.near:

@@ -15,9 +15,10 @@ candidate, without leaving compiled code:
 3. keeps it when the position error is within ``ptol`` and the rotation error within ``rtol``,
    and no earlier kept solution of the target is within ``dup`` in every joint (revolute modulo 2π);
 4. writes the full configuration (``base`` with the chain's ``columns`` set) to ``Q[t, k]``, its
-   errors, ``within`` (inside ``lower``/``upper`` to ``limit_tol``) and ``sing``: 0 regular (the
-   lower bound ``|det J| / ‖J‖_F^6`` of σ_min / σ_max above ``singular``), 2 undecided (the caller
-   computes σ_min / σ_max for those); slots past ``count[t]`` are NaN / False.
+   errors, ``within`` (inside ``lower``/``upper`` to ``limit_tol``) and ``sing``: 1 where σ_min /
+   σ_max of the chain's 6 x n Jacobian is at most ``singular`` (decided by the lower bound
+   ``|det J| / ‖J‖_F^6`` where it is above, else by the eigenvalues of ``JᵀJ``); slots past
+   ``count[t]`` are NaN / False.
 
 :func:`nominal` counts, per target, the ideal chain's distinct candidates that meet the tolerances
 on the ideal chain's own FK (a near family's reference count).
@@ -33,9 +34,10 @@ import math
 import numba as nb
 import numpy as np
 
+from .compiled import _sincos_row
 from .ik import rotation_log
 
-_JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+_JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"contract"})
 
 #: a squared pose error below this is converged
 CONVERGED = 1e-28
@@ -44,9 +46,11 @@ FLOOR = 1e-26
 
 
 @nb.njit(**_JIT)
-def chain_fk(h, r, rev, M, x, F, W, O):
+def chain_fk(h, r, rev, M, x, F, W, O, sn, cs):
     """``F = E_1(x_1) ... E_n(x_n) M`` (4, 4); ``W[j]``, ``O[j]``: joint j's axis and axis point in
-    the world frame at ``x`` (what the Jacobian needs)."""
+    the world frame at ``x`` (what the Jacobian needs); ``sn``, ``cs`` (n,): scratch (the sines and
+    cosines, by the FK kernel's polynomial)."""
+    _sincos_row(x, sn, cs, x.shape[0])
     R00, R01, R02, R10, R11, R12, R20, R21, R22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
     p0, p1, p2 = 0.0, 0.0, 0.0
     for j in range(h.shape[0]):
@@ -59,7 +63,7 @@ def chain_fk(h, r, rev, M, x, F, W, O):
         O[j, 1] = R10 * a0 + R11 * a1 + R12 * a2 + p1
         O[j, 2] = R20 * a0 + R21 * a1 + R22 * a2 + p2
         if rev[j]:
-            c, s = math.cos(x[j]), math.sin(x[j])
+            c, s = cs[j], sn[j]
             v = 1.0 - c
             E00, E01, E02 = c + v * k0 * k0, v * k0 * k1 - s * k2, v * k0 * k2 + s * k1
             E10, E11, E12 = v * k0 * k1 + s * k2, c + v * k1 * k1, v * k1 * k2 - s * k0
@@ -168,17 +172,31 @@ def damped_step(J, e, lam, A, b, dq):
 
 @nb.njit(**_JIT)
 def wrap(x, rev):
+    """Revolute values into (−π, π] (values already inside are left as they are)."""
     for j in range(x.shape[0]):
-        if rev[j]:
-            w = (x[j] + math.pi) % (2.0 * math.pi) - math.pi
+        v = x[j]
+        if rev[j] and (v > math.pi or v <= -math.pi + 1e-15):
+            w = v - 2.0 * math.pi * math.floor((v + math.pi) / (2.0 * math.pi))
+            if w > math.pi:
+                w -= 2.0 * math.pi
             x[j] = math.pi if w <= -math.pi + 1e-15 else w
 
 
 @nb.njit(**_JIT)
-def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R, out, A, b, dq, trial):
+def same_solution(x, y, rev, dup):
+    """Every joint of x and y within ``dup`` (revolute: both in (−π, π], compared modulo 2π)."""
+    for j in range(x.shape[0]):
+        d = abs(x[j] - y[j])
+        if d > dup and not (rev[j] and d >= 2.0 * math.pi - dup):
+            return False
+    return True
+
+
+@nb.njit(**_JIT)
+def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R, out, A, b, dq, trial, sn, cs):
     """Up to ``steps`` LM steps of ``x`` (n,) towards ``T``; returns the final squared error (``F``, ``e`` at x)."""
     n = x.shape[0]
-    chain_fk(h, r, rev, M, x, F, W, O)
+    chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
     cost = pose_error(F, T, e, R, out)
     for _ in range(steps):
         if cost <= CONVERGED or lam >= 1e6:
@@ -194,7 +212,7 @@ def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R
                     dq[j] *= 0.5 / big
         for j in range(n):
             trial[j] = x[j] + dq[j]
-        chain_fk(h, r, rev, M, trial, F, W, O)
+        chain_fk(h, r, rev, M, trial, F, W, O, sn, cs)
         cost2 = pose_error(F, T, e, R, out)
         if cost2 < cost:
             for j in range(n):
@@ -205,7 +223,7 @@ def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R
             if cost <= FLOOR:  # on the solution to rounding: no step lowers the error any more
                 break
             lam = min(lam * 8.0, 1e6)
-            chain_fk(h, r, rev, M, x, F, W, O)
+            chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
             cost = pose_error(F, T, e, R, out)
     return cost
 
@@ -240,11 +258,54 @@ def det_bound(J, A):
 
 
 @nb.njit(**_JIT)
+def singular_ratio2(J, A):
+    """(σ_min / σ_max)² of J (m, n): the extreme eigenvalues of ``JᵀJ`` by cyclic Jacobi rotations
+    (A: scratch (n, n))."""
+    m, n = J.shape
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for k in range(m):
+                s += J[k, i] * J[k, j]
+            A[i, j] = s
+    for _ in range(30):
+        off = 0.0
+        diag = 0.0
+        for i in range(n):
+            diag += A[i, i] * A[i, i]
+            for j in range(i + 1, n):
+                off += A[i, j] * A[i, j]
+        if off <= 1e-32 * diag:
+            break
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                apq = A[p, q]
+                if apq == 0.0:
+                    continue
+                theta = 0.5 * (A[q, q] - A[p, p]) / apq
+                t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                sn = t * c
+                for k in range(n):
+                    akp, akq = A[k, p], A[k, q]
+                    A[k, p], A[k, q] = c * akp - sn * akq, sn * akp + c * akq
+                for k in range(n):
+                    apk, aqk = A[p, k], A[q, k]
+                    A[p, k], A[q, k] = c * apk - sn * aqk, sn * apk + c * aqk
+    lo, hi = A[0, 0], A[0, 0]
+    for i in range(1, n):
+        lo = min(lo, A[i, i])
+        hi = max(hi, A[i, i])
+    return max(lo, 0.0) / max(hi, 1e-300)
+
+
+@nb.njit(**_JIT)
 def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps, lam0, damped, middle, tight, final,
-           ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
+           reach, ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
     """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs.
     ``damped`` (a search from seeds): LM from λ = ``lam0`` with steps of at most 0.5 per joint, then
-    ``middle`` undamped steps for a row that came within 1e-2 of a solution."""
+    ``middle`` undamped steps for a row that came within 1e-2 of a solution. A candidate whose first
+    error (m + rad) is above ``reach`` is dropped unpolished."""
     n = h.shape[0]
     C = Q.shape[1]
     dof = base.shape[1]
@@ -259,6 +320,7 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
     bb = np.empty(n)
     dq = np.empty(n)
     trial = np.empty(n)
+    sn, cs = np.empty(n), np.empty(n)
     x = np.empty(n)
     kept = np.empty((C, n))
     for t in range(a, b_):
@@ -276,26 +338,29 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
             if not finite:
                 continue
             wrap(x, rev)
-            chain_fk(h, r, rev, M, x, F, W, O)
+            chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
             pose_error(F, T, e, R, out)
             p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
             q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+            if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
+                continue
             if not (p <= tight and q <= tight):
                 cost = levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A, bb, dq,
-                                           trial)
+                                           trial, sn, cs)
                 if damped and cost < 1e-4 and middle > 0:  # near a solution: undamped steps, quadratic convergence
                     levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq,
-                                        trial)
+                                        trial, sn, cs)
                 wrap(x, rev)
-                chain_fk(h, r, rev, M, x, F, W, O)
+                chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
                 pose_error(F, T, e, R, out)
                 p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
                 q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
             if p + q > tight and p < 10.0 * ptol and q < 10.0 * rtol and final > 0:
                 # near a solution but not on it to machine precision (a double root converges only linearly)
-                levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq, trial)
+                levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq, trial,
+                                    sn, cs)
                 wrap(x, rev)
-                chain_fk(h, r, rev, M, x, F, W, O)
+                chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
                 pose_error(F, T, e, R, out)
                 p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
                 q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
@@ -303,15 +368,7 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
                 continue
             same = False
             for i in range(k):
-                far = False
-                for j in range(n):
-                    d = x[j] - kept[i, j]
-                    if rev[j]:
-                        d = (d + math.pi) % (2.0 * math.pi) - math.pi
-                    if abs(d) > dup:
-                        far = True
-                        break
-                if not far:
+                if same_solution(x, kept[i], rev, dup):
                     same = True
                     break
             if same:
@@ -328,11 +385,11 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
                 if v < lower[j] - limit_tol or v > upper[j] + limit_tol:
                     inside = False
             pe[t, k], re[t, k], within[t, k] = p, q, inside
-            s = 2
-            if n == 6:
-                chain_jacobian(rev, F, W, O, J)
-                if det_bound(J, A) > singular:
-                    s = 0
+            chain_jacobian(rev, F, W, O, J)
+            if n == 6 and det_bound(J, A) > singular:
+                s = 0
+            else:  # the bound does not decide: σ_min / σ_max itself
+                s = 1 if singular_ratio2(J, A) <= singular * singular else 0
             sing[t, k] = s
             k += 1
         count[t] = k
@@ -353,6 +410,7 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
     e = np.empty(6)
     R = np.empty((3, 3))
     out = np.empty(3)
+    sn, cs = np.empty(n), np.empty(n)
     kept = np.empty((cand.shape[1], n))
     for t in range(a, b_):
         k = 0
@@ -363,7 +421,7 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
                     finite = False
             if not finite:
                 continue
-            chain_fk(h, r, rev, M, cand[t, c], F, W, O)
+            chain_fk(h, r, rev, M, cand[t, c], F, W, O, sn, cs)
             pose_error(F, targets[t], e, R, out)
             p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
             q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
