@@ -45,11 +45,12 @@ from ..engine import ik_closed, ik_fast, ik_polish
 from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
+from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
-from .ik_families import Chain, Family, detect, reduce_chain
+from .ik_families import Chain, Family, detect, reduce_chain, validate_locked
 
 LIMIT_POLICIES = ("respect", "ignore")
 METHODS = ("auto", "analytic", "numeric")
@@ -210,6 +211,26 @@ def _copies(model: RobotModel, chain: Chain, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+#: (chain, family) of the last ``FAMILY_CACHE`` (link, locked, tool) asked of a model
+_families = PerModel(lambda model: {})
+FAMILY_CACHE = 64
+
+
+def _chain_family(model: RobotModel, link: str, locked: dict | None, tool: np.ndarray | None) -> tuple[Chain, Family]:
+    """:func:`reduce_chain` and :func:`detect`, kept per model (``locked`` validated every time)."""
+    values = validate_locked(model, locked)
+    key = (link, tuple(sorted(values.items())), None if tool is None else np.asarray(tool, dtype=float).tobytes())
+    cache = _families(model)
+    hit = cache.get(key)
+    if hit is None:
+        chain = reduce_chain(model, link, values, tool)
+        hit = (chain, detect(chain))
+        if len(cache) >= FAMILY_CACHE:
+            cache.clear()
+        cache[key] = hit
+    return hit
+
+
 def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
                   tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
                   method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
@@ -223,8 +244,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
     if method not in METHODS:
         raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
-    chain = reduce_chain(model, link, locked, tool)
-    fam = detect(chain)
+    chain, fam = _chain_family(model, link, locked, tool)
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")
@@ -255,8 +275,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             short = np.flatnonzero(found < nominal)
         if not (fam.near and short.size) and limits == "ignore" and seed is None:
             K = int(found.max(initial=0))
-            return AllSolutions(Qk[:, :K].copy(), found, within[:, :K].copy(), sing[:, :K] == 1, pe[:, :K].copy(),
-                                re[:, :K].copy(), fam, "analytic" if fam.closed_form else "search",
+            return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K], fam,
+                                "analytic" if fam.closed_form else "search",
                                 found >= nominal if fam.near else np.ones(N, bool))
         slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
         rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
@@ -370,7 +390,8 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
     ideal chain's counts (N,; a near family, else None)."""
     ideal = fam.ideal
     goals = inverse_transform(T_root) if fam.reversed else T_root
-    G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))  # row by row: a target alone gets its batch answer
+    # row by row (not a batched BLAS product): a target alone gets its batch answer
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
     N, C, dof = G.shape[0], ik_closed.MAX_CANDIDATES, model.dof
     cand = np.empty((N, C, 6))
     ccount = np.zeros(N, dtype=np.int64)

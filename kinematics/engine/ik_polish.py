@@ -45,7 +45,7 @@ CONVERGED = 1e-28
 FLOOR = 1e-26
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def chain_fk(h, r, rev, M, x, F, W, O, sn, cs):
     """``F = E_1(x_1) ... E_n(x_n) M`` (4, 4); ``W[j]``, ``O[j]``: joint j's axis and axis point in
     the world frame at ``x`` (what the Jacobian needs); ``sn``, ``cs`` (n,): scratch (the sines and
@@ -95,7 +95,7 @@ def chain_fk(h, r, rev, M, x, F, W, O, sn, cs):
     F[2, 3] = R20 * m0 + R21 * m1 + R22 * m2 + p2
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def pose_error(F, T, e, R, out):
     """``e = (p_T − p_F, log(R_T R_Fᵀ))`` (6,); returns the squared norm."""
     for a in range(3):
@@ -110,7 +110,7 @@ def pose_error(F, T, e, R, out):
     return s
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def chain_jacobian(rev, F, W, O, J):
     """The 6 x n Jacobian of the chain's end point (linear rows first, world axes) from ``chain_fk``'s W, O."""
     px, py, pz = F[0, 3], F[1, 3], F[2, 3]
@@ -129,7 +129,8 @@ def chain_jacobian(rev, F, W, O, J):
 
 @nb.njit(**_JIT)
 def damped_step(J, e, lam, A, b, dq):
-    """``dq = (JᵀJ + λI)⁻¹ Jᵀ e`` by Cholesky (plain loops); False (and dq = 0) when the factor is not positive."""
+    """``dq = (JᵀJ + λI)⁻¹ Jᵀ e`` by Cholesky (plain loops); False (and dq = 0) when the factor is
+    not positive."""
     m, n = J.shape
     for r in range(n):
         s = 0.0
@@ -170,7 +171,7 @@ def damped_step(J, e, lam, A, b, dq):
     return True
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def wrap(x, rev):
     """Revolute values into (−π, π] (values already inside are left as they are)."""
     for j in range(x.shape[0]):
@@ -182,7 +183,7 @@ def wrap(x, rev):
             x[j] = math.pi if w <= -math.pi + 1e-15 else w
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def same_solution(x, y, rev, dup):
     """Every joint of x and y within ``dup`` (revolute: both in (−π, π], compared modulo 2π)."""
     for j in range(x.shape[0]):
@@ -228,7 +229,7 @@ def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R
     return cost
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def det_bound(J, A):
     """``|det J| / ‖J‖_F^n`` of a square J (n, n) by LU with partial pivoting (A: scratch (n, n))."""
     n = J.shape[1]
