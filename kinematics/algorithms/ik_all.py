@@ -307,9 +307,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             errors = None
         complete = found >= nominal
     if limits == "respect":
-        expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
-        owner = np.array([o for o, _ in expanded], dtype=np.intp)
-        rows = np.array([c for _, c in expanded]).reshape(len(expanded), dof)
+        rows, owner = _all_copies(model, chain, rows, owner)
         errors = None
     if seed is not None and len(rows):
         order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
@@ -428,8 +426,8 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
 
     def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
         candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
-        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final, reach,
-                         position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
+        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final,
+                         reach, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
                          a, b, Qk, found, pe, re, within, sing)
         if fam.near:
             candidates(a, b, 0.0, cand0, count0)
@@ -438,6 +436,24 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
 
     run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
     return Qk, found, pe, re, within, sing, nominal
+
+
+def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every ``q + 2πk`` copy within the limits of each row (R, dof) (:func:`_copies`, compiled):
+    the copies (R', dof) and their targets (R',)."""
+    rows = np.ascontiguousarray(rows, dtype=float).reshape(-1, model.dof)
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lo, hi = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+    periodic = np.ascontiguousarray(chain.revolute & ~model.continuous[cols] & np.isfinite(lo[cols])
+                                    & np.isfinite(hi[cols]))
+    starts = np.zeros(len(rows) + 1, dtype=np.int64)
+    out = np.empty((0, model.dof))
+    ik_polish.copies(rows, cols, periodic, lo, hi, LIMIT_TOLERANCE, True, starts, out)
+    per = starts[1:].copy()
+    np.cumsum(starts, out=starts)
+    out = np.empty((int(starts[-1]), model.dof))
+    ik_polish.copies(rows, cols, periodic, lo, hi, LIMIT_TOLERANCE, False, starts, out)
+    return out, np.repeat(np.asarray(owner, dtype=np.intp), per)
 
 
 def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:

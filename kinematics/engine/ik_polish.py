@@ -446,3 +446,46 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
                     kept[k, j] = cand[t, c, j]
                 k += 1
         count[t] = k
+
+
+@nb.njit(**_JIT)
+def _joint_copies(v, lo, hi, tol, periodic):
+    """(first k, number of values) of joint value v's copies ``v + 2πk`` within [lo, hi] (to tol), or
+    (0, 1 / 0) for a joint without copies (``periodic`` False: v itself when inside)."""
+    if periodic:
+        k0 = math.ceil((lo - tol - v) / (2.0 * math.pi))
+        k1 = math.floor((hi + tol - v) / (2.0 * math.pi))
+        return k0, max(k1 - k0 + 1, 0)
+    return 0, 1 if (lo - tol <= v <= hi + tol) else 0
+
+
+@nb.njit(**_JIT)
+def copies(rows, cols, periodic, lower, upper, tol, count_only, starts, out):
+    """Every ``q + 2πk`` copy of each row of ``rows`` (R, dof) within the limits: the columns ``cols``
+    (the chain's joints, in order; ``periodic``: a revolute joint with finite limits that is not
+    continuous) take each of their values inside ``[lower, upper]`` (to ``tol``, clipped to the limits),
+    the first column varying slowest. ``count_only``: ``starts[i + 1]`` = the number of copies of row
+    i; else the copies are written to ``out[starts[i]:starts[i + 1]]``."""
+    n = cols.shape[0]
+    k0 = np.empty(n, dtype=np.int64)
+    m = np.empty(n, dtype=np.int64)
+    for i in range(rows.shape[0]):
+        total = 1
+        for c in range(n):
+            j = cols[c]
+            k0[c], m[c] = _joint_copies(rows[i, j], lower[j], upper[j], tol, periodic[c])
+            total *= m[c]
+        if count_only:
+            starts[i + 1] = total
+            continue
+        for s in range(total):
+            o = starts[i] + s
+            for j in range(rows.shape[1]):
+                out[o, j] = rows[i, j]
+            rest = s
+            for c in range(n - 1, -1, -1):
+                d = rest % m[c]
+                rest //= m[c]
+                j = cols[c]
+                v = rows[i, j] + 2.0 * math.pi * (k0[c] + d) if periodic[c] else rows[i, j]
+                out[o, j] = min(max(v, lower[j]), upper[j])
