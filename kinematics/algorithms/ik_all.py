@@ -43,21 +43,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import ik_closed, ik_fast
+from ..engine import ik_closed, ik_fast, ik_polish
 from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
+from ..model.derived import PerModel
 from ..model.robot import RobotModel
-from ..spatial.transforms import exp_screws, inverse_transform
+from ..spatial.transforms import inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from . import ik_general
 from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
-from .ik_families import Chain, Family, detect, reduce_chain
+from .ik_families import Chain, Family, detect, reduce_chain, validate_locked
 
 LIMIT_POLICIES = ("respect", "ignore")
 METHODS = ("auto", "analytic", "numeric")
 #: Newton steps on the real model after the closed form (exact family, near family) and in the search
 POLISH_STEPS, NEAR_STEPS, SEARCH_STEPS = 4, 60, 100
+#: an exact family's candidate further than this (m + rad) from its target is the least-squares point of
+#: a branch that does not exist (the closed form is the chain's own to 1e-9): it is not polished
+EXACT_REACH = 1e-4
 #: a near family's least-squares branch points are seeded this far (rad or m) on either side
 NEAR_SPREAD = 0.05
 #: seeds of the multistart search (per target)
@@ -175,38 +179,6 @@ def _search_seeds(model: RobotModel, chain: Chain, count: int) -> np.ndarray:
     return lo + u * (hi - lo)
 
 
-def _closed_form_candidates(fam: Family, T_root: np.ndarray, spread: float | None = None,
-                            position_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(N, C, n) candidate values of the chain's joints (chain order) and counts (N,), from the ideal chain."""
-    if fam.kernel in ik_general.KERNELS:  # general 6R elimination, short-chain closed forms
-        return ik_general.family_candidates(fam, T_root, position_only)
-    ideal = fam.ideal
-    targets = inverse_transform(T_root) if fam.reversed else T_root
-    G = np.ascontiguousarray(np.einsum("nij,jk->nik", targets, inverse_transform(ideal.M)))  # not a batched BLAS product: a target alone gets its batch answer
-    N = G.shape[0]
-    Q = np.zeros((N, ik_closed.MAX_CANDIDATES, 6))
-    count = np.zeros(N, dtype=np.int64)
-    flag = np.zeros((N, ik_closed.MAX_CANDIDATES), dtype=np.int64)
-    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
-    if spread is None:
-        spread = NEAR_SPREAD if fam.near else 0.0
-    centre = np.ascontiguousarray(fam.centre)
-
-    def rows(a: int, b: int) -> None:  # a nogil kernel over targets a..b, on the engine's threads
-        if fam.kernel == "spherical_wrist_search":
-            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, Q[a:b], count[a:b], flag[a:b])
-        elif fam.kernel == "spherical_wrist":
-            ik_fast.spherical_wrist(G[a:b], h, r, not bool(ideal.revolute[2]), centre, fam.position, spread,
-                                    Q[a:b], count[a:b], flag[a:b])
-        else:
-            ik_fast.three_parallel(G[a:b], h, r, centre, spread, Q[a:b], count[a:b], flag[a:b])
-
-    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
-    if fam.reversed:  # q_k of the original chain is −q'_{n−1−k}
-        Q = -Q[:, :, ::-1]
-    return Q, count
-
-
 def _wrap_revolute(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray:
     q = q.copy()
     cols = chain.columns[chain.revolute]
@@ -242,6 +214,26 @@ def _copies(model: RobotModel, chain: Chain, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+#: (chain, family) of the last ``FAMILY_CACHE`` (link, locked, tool) asked of a model
+_families = PerModel(lambda model: {})
+FAMILY_CACHE = 64
+
+
+def _chain_family(model: RobotModel, link: str, locked: dict | None, tool: np.ndarray | None) -> tuple[Chain, Family]:
+    """:func:`reduce_chain` and :func:`detect`, kept per model (``locked`` validated every time)."""
+    values = validate_locked(model, locked)
+    key = (link, tuple(sorted(values.items())), None if tool is None else np.asarray(tool, dtype=float).tobytes())
+    cache = _families(model)
+    hit = cache.get(key)
+    if hit is None:
+        chain = reduce_chain(model, link, values, tool)
+        hit = (chain, detect(chain))
+        if len(cache) >= FAMILY_CACHE:
+            cache.clear()
+        cache[key] = hit
+    return hit
+
+
 def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
                   tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
                   method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
@@ -255,8 +247,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
     if method not in METHODS:
         raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
-    chain = reduce_chain(model, link, locked, tool)
-    fam = detect(chain)
+    chain, fam = _chain_family(model, link, locked, tool)
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")
@@ -282,74 +273,39 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         base_q[:] = np.broadcast_to(np.asarray(seed, dtype=float), (N, dof))
     for name, v in chain.locked.items():
         base_q[:, model.q_index[name]] = v
+    degenerate = np.zeros(0, dtype=np.intp)
+    general = fam.kernel in ik_general.KERNELS
     if use_closed:
-        cand, counts = _closed_form_candidates(fam, T_root, position_only=position_only)
-        degenerate = np.flatnonzero(counts < 0)  # the general 6R elimination degenerates there: the search joins in
-        counts = np.maximum(counts, 0)
-        steps, damped = (NEAR_STEPS if fam.near else POLISH_STEPS), False
-    else:
-        seeds = _search_seeds(model, chain, search_seeds)
-        cand = np.broadcast_to(seeds, (N,) + seeds.shape)
-        counts = np.full(N, len(seeds))
-        steps, damped = SEARCH_STEPS, True
-    owner = np.repeat(np.arange(N), counts)
-    Q = base_q[owner].copy()
-    rows = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
-    Q[:, chain.columns] = rows
-    Tt = T_root[owner]
-    if len(Q) and not damped:
-        # the closed form: measure once, polish only the rows not yet on a solution (most are)
-        Q = _wrap_revolute(model, chain, Q)
-        finite = np.all(np.isfinite(Q), axis=1)
-        p0, r0 = pose_errors(poe.fk(np.where(finite[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
-        todo = np.flatnonzero(finite & ~((p0 <= TIGHT) & (r0 <= TIGHT)))
-        if todo.size:
-            Q[todo] = newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool, position_only, False)
-    elif len(Q):
-        Q = newton(poe, link, Q, Tt, chain.columns, steps, tool, position_only, damped)
-        if damped:  # then undamped steps on the rows that came near a solution: quadratic convergence onto it
-            e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
-            near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
-            Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
-    Q = _wrap_revolute(model, chain, Q)
-    ok = np.zeros(len(Q), bool)
-    if len(Q):
-        ok = np.all(np.isfinite(Q), axis=1)
-        if not damped:  # measured above; again only where Newton moved a row
-            p, r = p0, r0
-            if todo.size:
-                p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
-                                               Tt[todo])
+        if general:  # general 6R elimination, short-chain closed forms (numpy)
+            cand, counts = ik_general.family_candidates(fam, T_root, position_only)
+            degenerate = np.flatnonzero(counts < 0)  # the elimination degenerates there: the search joins in
+            rows, owner, errors = _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand,
+                                                     np.maximum(counts, 0), position_only, position_tolerance,
+                                                     rotation_tolerance)
         else:
-            p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
-        # rows near a solution but not on it to machine precision (a double root where two branches
-        # meet converges only linearly): more Newton steps before the check
-        slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
-                              & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
-        if slow.size:
-            # (an exact closed form lands on its solutions: a few steps are enough there)
-            final = POLISH_STEPS if use_closed and not fam.near else FINAL_STEPS
-            Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, final, tool,
-                                                          position_only, False))
-            p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
-        ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-    keep = np.zeros(len(Q), bool)
-    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
-    rows, owner = Q[keep], owner[keep]
-    # the errors measured on these very rows (None: measured again in _pack, after any change of rows)
-    errors = (p[keep], r[keep]) if len(Q) else None
+            # candidates, polish, check, duplicates and flags in one compiled pass per target
+            Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(model, poe, chain, fam, T_root, base_q,
+                                                                              position_tolerance, rotation_tolerance)
+            if fam.near:
+                short = np.flatnonzero(found < nominal)
+            if not (fam.near and short.size) and limits == "ignore" and seed is None:
+                K = int(found.max(initial=0))
+                return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K], fam,
+                                    "analytic" if fam.closed_form else "search",
+                                    found >= nominal if fam.near else np.ones(N, bool))
+            slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
+            rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
+    else:
+        rows, owner, errors = _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
+                                      position_tolerance, rotation_tolerance, model)
     complete = np.ones(N, bool)
     if use_closed and degenerate.size:
         rows, owner = _join_search(model, link, T_root, degenerate, rows, owner, base_q, chain, tool, locked, mode,
                                    position_tolerance, rotation_tolerance, search_seeds)
         errors = None
-    if use_closed and fam.near:
+    if use_closed and fam.near and not general:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
         # lost by a singularity or the edge of the reach), the search joins in for that target
-        found = np.bincount(owner, minlength=N)
-        nominal = _nominal_counts(fam, T_root, position_tolerance, rotation_tolerance)
-        short = np.flatnonzero(found < nominal)
         if short.size:
             extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
                                   method="numeric", mode=mode, position_tolerance=position_tolerance,
@@ -370,9 +326,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             errors = None
         complete = found >= nominal
     if limits == "respect":
-        expanded = [(o, c) for s, o in zip(rows, owner) for c in _copies(model, chain, s)]
-        owner = np.array([o for o, _ in expanded], dtype=np.intp)
-        rows = np.array([c for _, c in expanded]).reshape(len(expanded), dof)
+        rows, owner = _all_copies(model, chain, rows, owner)
         errors = None
     if seed is not None and len(rows):
         order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
@@ -401,36 +355,182 @@ def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool,
     return rows[keep], owner[keep]
 
 
+def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only, position_tolerance,
+            rotation_tolerance, model):
+    """The multistart search: rows (R, dof), owner (R,) and their (position, rotation) errors."""
+    N = len(T_root)
+    seeds = _search_seeds(model, chain, search_seeds)
+    if not position_only and not chain.mimic:
+        return _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance)
+    owner = np.repeat(np.arange(N), len(seeds))
+    Q = base_q[owner].copy()
+    Q[:, chain.columns] = np.tile(seeds, (N, 1))
+    Tt = T_root[owner]
+    if not len(Q):
+        return Q, owner, None
+    Q = newton(poe, link, Q, Tt, chain.columns, SEARCH_STEPS, tool, position_only, True)
+    # then undamped steps on the rows that came near a solution: quadratic convergence onto it
+    e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
+    near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
+    Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
+    Q = _wrap_revolute(model, chain, Q)
+    ok = np.all(np.isfinite(Q), axis=1)
+    p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+    # rows near a solution but not on it to machine precision (a double root where two branches
+    # meet converges only linearly): more Newton steps before the check
+    slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
+                          & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
+    if slow.size:
+        Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
+                                                      position_only, False))
+        p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
+    ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    starts = (np.arange(N + 1) * len(seeds)).astype(np.intp)
+    keep = np.zeros(len(Q), bool)
+    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    return Q[keep], owner[keep], (p[keep], r[keep])
+
+
+def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
+    """The multistart search of a pose in :func:`kinematics.engine.ik_polish.polish` (damped LM from
+    every seed, then undamped steps near a solution), targets on the engine's threads."""
+    N, S, dof = len(T_root), len(seeds), model.dof
+    cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, chain.n))
+    ccount = np.full(N, S, dtype=np.int64)
+    Qk = np.empty((N, S, dof))
+    found = np.zeros(N, dtype=np.int64)
+    pe, re = np.empty((N, S)), np.empty((N, S))
+    within = np.zeros((N, S), bool)
+    sing = np.zeros((N, S), np.int8)
+    T_root = np.ascontiguousarray(T_root)
+    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
+            np.ascontiguousarray(chain.M))
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+
+    def rows(a: int, b: int) -> None:
+        ik_polish.polish(cand, ccount, False, T_root, base_q, cols, *real, SEARCH_STEPS, 1e-2, True, 6 * POLISH_STEPS,
+                         TIGHT, FINAL_STEPS, np.inf, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
+                         LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
+
+    run_rows(rows, N, min_rows=1, piece_rows=1)
+    slot = np.arange(S)[None, :] < found[:, None]
+    return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
+
+
+def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tolerance, rotation_tolerance):
+    """Every solution by the family's compiled kernel and :func:`kinematics.engine.ik_polish.polish`,
+    targets split over the engine's threads: q (N, C, dof) NaN-padded, count (N,), position and
+    rotation errors (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular) and the
+    ideal chain's counts (N,; a near family, else None)."""
+    ideal = fam.ideal
+    goals = inverse_transform(T_root) if fam.reversed else T_root
+    # row by row (not a batched BLAS product): a target alone gets its batch answer
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
+    N, C, dof = G.shape[0], ik_closed.MAX_CANDIDATES, model.dof
+    cand = np.empty((N, C, 6))
+    ccount = np.zeros(N, dtype=np.int64)
+    flag = np.zeros((N, C), dtype=np.int64)
+    Qk = np.empty((N, C, dof))
+    found = np.zeros(N, dtype=np.int64)
+    pe, re = np.empty((N, C)), np.empty((N, C))
+    within = np.zeros((N, C), bool)
+    sing = np.zeros((N, C), np.int8)  # 1: singular
+    nominal = np.zeros(N, dtype=np.int64) if fam.near else None
+    cand0 = np.empty((N, C, 6)) if fam.near else None
+    count0 = np.zeros(N, dtype=np.int64)
+    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
+    centre = np.ascontiguousarray(fam.centre)
+    prismatic3 = not bool(ideal.revolute[2])
+    T_root = np.ascontiguousarray(T_root)
+    goals = np.ascontiguousarray(goals)
+    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
+            np.ascontiguousarray(chain.M))
+    ideal_chain = (h, r, np.ascontiguousarray(ideal.revolute), np.ascontiguousarray(ideal.M))
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+    steps = NEAR_STEPS if fam.near else POLISH_STEPS
+    final = FINAL_STEPS if fam.near else POLISH_STEPS
+    reach = np.inf if fam.near else EXACT_REACH
+
+    def candidates(a, b, width, out, n):
+        if fam.kernel == "spherical_wrist_search":
+            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, out[a:b], n[a:b], flag[a:b])
+        elif fam.kernel == "spherical_wrist":
+            ik_fast.spherical_wrist(G[a:b], h, r, prismatic3, centre, fam.position, width, out[a:b], n[a:b], flag[a:b])
+        else:
+            ik_fast.three_parallel(G[a:b], h, r, centre, width, out[a:b], n[a:b], flag[a:b])
+
+    def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
+        candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
+        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final,
+                         reach, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
+                         a, b, Qk, found, pe, re, within, sing)
+        if fam.near:
+            candidates(a, b, 0.0, cand0, count0)
+            ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
+                              a, b, nominal)
+
+    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
+    return Qk, found, pe, re, within, sing, nominal
+
+
+def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every ``q + 2πk`` copy within the limits of each row (R, dof) (:func:`_copies`, compiled):
+    the copies (R', dof) and their targets (R',)."""
+    rows = np.ascontiguousarray(rows, dtype=float).reshape(-1, model.dof)
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lo, hi = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+    periodic = np.ascontiguousarray(chain.revolute & ~model.continuous[cols] & np.isfinite(lo[cols])
+                                    & np.isfinite(hi[cols]))
+    starts = np.zeros(len(rows) + 1, dtype=np.int64)
+    out = np.empty((0, model.dof))
+    ik_polish.copies(rows, cols, periodic, lo, hi, LIMIT_TOLERANCE, True, starts, out)
+    per = starts[1:].copy()
+    np.cumsum(starts, out=starts)
+    out = np.empty((int(starts[-1]), model.dof))
+    ik_polish.copies(rows, cols, periodic, lo, hi, LIMIT_TOLERANCE, False, starts, out)
+    return out, np.repeat(np.asarray(owner, dtype=np.intp), per)
+
+
+def _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand, counts, position_only,
+                       position_tolerance, rotation_tolerance):
+    """Closed-form candidates (N, C, n) with their counts (N,), measured, Newton-polished where not yet
+    on a solution, checked against the tolerance and merged: rows (R, dof), owner (R,) and their
+    (position, rotation) errors (the numpy path of :mod:`.ik_general`'s families)."""
+    N = len(T_root)
+    owner = np.repeat(np.arange(N), counts)
+    Q = base_q[owner].copy()
+    Q[:, chain.columns] = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
+    Tt = T_root[owner]
+    if not len(Q):
+        return Q, owner, None
+    Q = _wrap_revolute(model, chain, Q)
+    ok = np.all(np.isfinite(Q), axis=1)
+    p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+    todo = np.flatnonzero(ok & ~((p <= TIGHT) & (r <= TIGHT)))  # most candidates are on a solution already
+    for steps in (POLISH_STEPS, POLISH_STEPS):  # a few steps, then a few more where a double root converges slowly
+        if not todo.size:
+            break
+        Q[todo] = _wrap_revolute(model, chain, newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool,
+                                                      position_only, False))
+        ok[todo] = np.all(np.isfinite(Q[todo]), axis=1)
+        p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
+                                       Tt[todo])
+        todo = todo[np.isfinite(p[todo]) & (p[todo] + np.where(position_only, 0.0, r[todo]) > TIGHT)
+                    & (p[todo] < 10 * position_tolerance) & (position_only | (r[todo] < 10 * rotation_tolerance))]
+    ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    keep = np.zeros(len(Q), bool)
+    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    return Q[keep], owner[keep], (p[keep], r[keep])
+
+
 def _with_free(base: np.ndarray, chain: Chain, Q: np.ndarray) -> np.ndarray:
     """Rows of ``Q`` (K, dof) with the joints off the chain taken from ``base`` (dof,)."""
     out = np.repeat(base[None], len(Q), 0)
     out[:, chain.columns] = Q[:, chain.columns]
     return out
-
-
-def _nominal_counts(fam: Family, T_root: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> np.ndarray:
-    """How many distinct solutions the *ideal* chain has for each target (N,): its closed form's
-    candidates that meet the tolerances on the ideal chain's own FK."""
-    cand, counts = _closed_form_candidates(fam, T_root, 0.0)
-    N = len(T_root)
-    owner = np.repeat(np.arange(N), counts)
-    c = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, 6))
-    if fam.reversed:
-        c = -c[:, ::-1]  # back to the ideal (reversed) chain's own joint values
-    ideal = fam.ideal
-    E = exp_screws(ideal.h, ideal.r, ideal.revolute, c)
-    F = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()
-    for j in range(ideal.n):
-        F = np.einsum("nij,njk->nik", F, E[:, j])
-    F = np.einsum("nij,jk->nik", F, ideal.M)
-    goal = (inverse_transform(T_root) if fam.reversed else T_root)[owner]
-    p, r = pose_errors(F, goal)
-    ok = np.isfinite(p) & (p <= position_tolerance) & (r <= rotation_tolerance)
-    keep = np.zeros(len(c), bool)
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-    ik_closed.distinct_rows(np.ascontiguousarray(c), ok, starts, np.arange(ideal.n, dtype=np.intp), ideal.revolute,
-                            DUPLICATE, keep)
-    return np.bincount(owner[keep], minlength=N)
 
 
 def _singular(J: np.ndarray) -> np.ndarray:

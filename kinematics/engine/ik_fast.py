@@ -17,42 +17,42 @@ from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def v(a):
     return (a[0], a[1], a[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def scale(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def norm(a):
     return math.sqrt(dot(a, a))
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def rot(k, theta, p):
     """``R(k, θ) p``."""
     c, s = math.cos(theta), math.sin(theta)
@@ -62,21 +62,21 @@ def rot(k, theta, p):
     return (c * p[0] + s * kx[0] + w * k[0], c * p[1] + s * kx[1] + w * k[1], c * p[2] + s * kx[2] + w * k[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def mat(G, p):
     """``G[:3, :3] p``."""
     return (G[0, 0] * p[0] + G[0, 1] * p[1] + G[0, 2] * p[2], G[1, 0] * p[0] + G[1, 1] * p[1] + G[1, 2] * p[2],
             G[2, 0] * p[0] + G[2, 1] * p[1] + G[2, 2] * p[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def matT(G, p):
     """``G[:3, :3]ᵀ p``."""
     return (G[0, 0] * p[0] + G[1, 0] * p[1] + G[2, 0] * p[2], G[0, 1] * p[0] + G[1, 1] * p[1] + G[2, 1] * p[2],
             G[0, 2] * p[0] + G[1, 2] * p[1] + G[2, 2] * p[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def trig(A, B, C):
     """(θa, θb, count, flag) of ``A cos θ + B sin θ = C`` (as :func:`~kinematics.engine.subproblems.trig_solve`)."""
     r = math.hypot(A, B)
@@ -95,7 +95,7 @@ def trig(A, B, C):
     return phi + a, phi - a, 2, EXACT
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def sp1(p1, p2, k):
     kp1, kp2 = dot(k, p1), dot(k, p2)
     a = sub(p1, scale(kp1, k))
@@ -110,7 +110,7 @@ def sp1(p1, p2, k):
     return theta, EXACT
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def sp3(p1, p2, k, d):
     kp1, kp2 = dot(k, p1), dot(k, p2)
     a = sub(p1, scale(kp1, k))
@@ -118,14 +118,14 @@ def sp3(p1, p2, k, d):
     return trig(2.0 * dot(a, b), 2.0 * dot(cross(k, a), b), dot(a, a) + dot(b, b) + (kp1 - kp2) ** 2 - d * d)
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def sp4(h, p, k, d):
     kp = dot(k, p)
     hk = dot(h, k)
     return trig(dot(h, p) - hk * kp, dot(h, cross(k, p)), d - hk * kp)
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def sp2(p1, p2, k1, k2):
     """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
     c12 = dot(k1, k2)
@@ -162,7 +162,7 @@ def sp2(p1, p2, k1, k2):
     return a0, a1, b0, b1, count, flag
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def spread(ta, tb, n, flag, width):
     """A least-squares branch point as two seeds ``φ ± width`` (``width`` > 0, near families)."""
     if flag == LEAST_SQUARES and n == 1 and width > 0.0:
@@ -170,7 +170,7 @@ def spread(ta, tb, n, flag, width):
     return ta, tb, n
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def perpendicular(k):
     i = 0
     if abs(k[1]) < abs(k[i]):
@@ -182,7 +182,7 @@ def perpendicular(k):
     return scale(1.0 / norm(u), u)
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, f):
     Q[t, n, 0], Q[t, n, 1], Q[t, n, 2] = q1, q2, q3
     Q[t, n, 3], Q[t, n, 4], Q[t, n, 5] = q4, q5, q6
@@ -326,7 +326,7 @@ POS_SEARCH = 4
 SEARCH_SAMPLES = 1440
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b):
     """Residual of branch b (0, 1) of the position part at q1: the height along axis 2 of the wrist
     centre turned by q3 (subproblem 3: its distance to axis 2's point right) minus the target's."""
