@@ -218,11 +218,11 @@ def _boxes_overlap(Wa, ha, Wb, hb) -> np.ndarray:
     (15 axes, Gottschalk et al.), vectorised; True where they may touch."""
     Ra, Rb = Wa[:, :3, :3], Wb[:, :3, :3]
     wa, wb = Wa[:, :3, 3], Wb[:, :3, 3]
-    R = np.einsum("kji,kjl->kil", Ra, Rb)  # b's axes in a's frame
+    R = Ra.transpose(0, 2, 1) @ Rb  # b's axes in a's frame
     t = np.einsum("kji,kj->ki", Ra, wb - wa)  # b's centre in a's frame
     absR = np.abs(R) + 1e-12
-    apart = np.any(np.abs(t) > ha + np.einsum("kij,kj->ki", absR, hb), axis=1)
-    apart |= np.any(np.abs(np.einsum("kji,kj->ki", R, t)) > np.einsum("kji,kj->ki", absR, ha) + hb, axis=1)
+    apart = np.any(np.abs(t) > ha + (absR @ hb[:, :, None])[..., 0], axis=1)
+    apart |= np.any(np.abs((t[:, None, :] @ R)[:, 0]) > (ha[:, None, :] @ absR)[:, 0] + hb, axis=1)
     for i in range(3):
         i1, i2 = (i + 1) % 3, (i + 2) % 3
         for j in range(3):
@@ -413,8 +413,8 @@ class CollisionModel:
         for start in range(0, N, chunk):
             T = self.link_poses(Q[start:start + chunk])
             n_rows = len(T)
-            W = np.einsum("nsij,sjk->nsik", T[:, self._shape_link], self._origins)  # (n, S, 4, 4) shapes in the world
-            C = np.einsum("nsij,sj->nsi", W[:, :, :3, :3], self._centres) + W[:, :, :3, 3]
+            W = T[:, self._shape_link] @ self._origins  # (n, S, 4, 4) shapes in the world (matmul: einsum's 4x time)
+            C = (W[:, :, :3, :3] @ self._centres[:, :, None])[..., 0] + W[:, :, :3, 3]
             if len(SP):
                 gap = np.linalg.norm(C[:, SP[:, 0]] - C[:, SP[:, 1]], axis=2) - self._radii[SP[:, 0]] - self._radii[SP[:, 1]]
             else:
@@ -428,7 +428,7 @@ class CollisionModel:
                 cn, cq, A, B, Wa, Wb = cn[keep], cq[keep], A[keep], B[keep], Wa[keep], Wb[keep]
                 # T_a_b = T_world_a^-1 T_world_b: one transform to hand over per call
                 Ra = Wa[:, :3, :3]
-                R_ab = list(np.einsum("kji,kjl->kil", Ra, Wb[:, :3, :3]))
+                R_ab = list(Ra.transpose(0, 2, 1) @ Wb[:, :3, :3])
                 p_ab = list(np.einsum("kji,kj->ki", Ra, Wb[:, :3, 3] - Wa[:, :3, 3]))
                 self._narrow_phase(R_ab, p_ab, cn.tolist(), owner[cq].tolist(), cq.tolist(), A.tolist(), B.tolist(),
                                    start, nP, narrow, creq, hreq, tf_id, tf_b, colliding, hits, stop_at_first, P)
@@ -465,7 +465,8 @@ class CollisionModel:
             if progress is not None:
                 progress(min(start + chunk, N))
         for row in hits:  # a pair's order in links, the pairs in the order given
-            row.sort(key=lambda ab: (self.link_index[ab[0]], self.link_index[ab[1]]))
+            if len(row) > 1:
+                row.sort(key=lambda ab: (self.link_index[ab[0]], self.link_index[ab[1]]))
         return CollisionResult(colliding, hits, dmin, closest, points)
 
 
