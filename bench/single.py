@@ -13,7 +13,9 @@ and 90th percentile over the repeats, with the ratio of the medians to Pinocchio
 - Pinocchio: ``forwardKinematics`` + ``updateFramePlacement`` (the one frame) and
   ``computeFrameJacobian`` (``WORLD``), on a pre-converted q;
 - the service: ``POST /models/{id}/fk`` with one configuration against ``GET /health`` on a live
-  one-worker uvicorn (``python -m uvicorn app.main:app``, loopback, one keep-alive client).
+  one-worker uvicorn (``python -m uvicorn app.main:app``, loopback, one keep-alive client), and
+  the same two requests with the app called in-process as an ASGI application (the worker's own
+  CPU time per request, without the client, uvicorn and the loopback).
 
 In-process rows use the CPU time of the benchmarking thread (:data:`bench.common.CLOCK`);
 the service rows use wall time (the request crosses two processes).
@@ -160,8 +162,77 @@ def service_table(report: Report, quick: bool, robot: str = "ur5") -> dict:
             "health_median": float(np.median(med["health"]))}
 
 
+def asgi_table(report: Report, quick: bool, robot: str = "ur5") -> dict:
+    """The service's own work per request, without the network, uvicorn or the client: the app
+    called as an ASGI application in this process (its lifespan run), CPU time of this thread."""
+    import asyncio
+    import tempfile
+
+    import orjson
+
+    from kinematics.io.catalogue import default_catalogue
+
+    n = REQUESTS * 10 // (3 if quick else 1)
+    model = default_catalogue().get(robot)
+    body = orjson.dumps({"q": configurations(model, 1)[0].tolist()})
+    fk_headers = [(b"host", b"bench"), (b"content-type", b"application/json"),
+                  (b"content-length", str(len(body)).encode())]
+
+    def scope(method: str, path: str, headers) -> dict:
+        return {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": method,
+                "scheme": "http", "path": path, "raw_path": path.encode(), "query_string": b"", "root_path": "",
+                "headers": headers, "client": ("127.0.0.1", 1), "server": ("127.0.0.1", 80)}
+
+    async def main(app) -> dict:
+        async def call(method, path, payload, headers):
+            async def receive():
+                return {"type": "http.request", "body": payload, "more_body": False}
+
+            status = []
+
+            async def send(message):
+                if message["type"] == "http.response.start":
+                    status.append(message["status"])
+
+            await app(scope(method, path, headers), receive, send)
+            assert status == [200], status
+
+        rows = {"fk": np.empty(REPEATS), "health": np.empty(REPEATS)}
+        async with app.router.lifespan_context(app):
+            for _ in range(50):
+                await call("POST", f"/models/{robot}/fk", body, fk_headers)
+                await call("GET", "/health", b"", [(b"host", b"bench")])
+            for r in range(REPEATS):
+                for name, args in (("fk", ("POST", f"/models/{robot}/fk", body, fk_headers)),
+                                   ("health", ("GET", "/health", b"", [(b"host", b"bench")]))):
+                    t0 = CLOCK()
+                    for _ in range(n):
+                        await call(*args)
+                    rows[name][r] = (CLOCK() - t0) / n
+        return rows
+
+    from app.main import create_app
+    from app.settings import Settings
+
+    with tempfile.TemporaryDirectory(prefix="kin-bench-") as data_dir:
+        med = asyncio.run(main(create_app(Settings(data_dir=data_dir, decode_process_bytes=0))))
+    ratio = med["fk"] / med["health"]
+    report.add(f"Service work per request in-process ({robot}; the app called as ASGI, no network; µs of CPU "
+               f"per request over {REPEATS} repeats of {n} requests)",
+               table(["request", "min", "median", "p90"], [
+                   [f"POST /models/{robot}/fk (JSON, one q)", *_stats(med["fk"], 1e6, 1)],
+                   ["GET /health", *_stats(med["health"], 1e6, 1)],
+                   ["ratio FK / health", f"{ratio.min():.2f}", f"**{np.median(ratio):.2f}**",
+                    f"{np.percentile(ratio, 90):.2f}"]]),
+               "CPU time of the benchmarking thread: what the worker itself spends on a request (routing, "
+               "middleware, reading, the use case, the JSON answer), which the live table's wall times add "
+               "the client, uvicorn and the loopback to; it moves far less with the machine's load.")
+    return {"fk_median": float(np.median(med["fk"])), "health_median": float(np.median(med["health"]))}
+
+
 def run(report: Report, quick: bool = False) -> dict:
-    return {"library": library_table(report, quick), "service": service_table(report, quick)}
+    return {"library": library_table(report, quick), "service": service_table(report, quick),
+            "asgi": asgi_table(report, quick)}
 
 
 if __name__ == "__main__":  # pragma: no cover
@@ -173,4 +244,4 @@ if __name__ == "__main__":  # pragma: no cover
     a = p.parse_args()
     rep = Report()
     for part in a.only.split(","):
-        {"library": library_table, "service": service_table}[part](rep, a.quick)
+        {"library": library_table, "service": service_table, "asgi": asgi_table}[part](rep, a.quick)

@@ -21,9 +21,9 @@ from kinematics.io.pose_records import pose_output
 from kinematics.spatial.reference import Reference
 
 from ..adapter import (INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, LimitsQuery, LinkQuery, LinksQuery,  # noqa: F401
-                       NormalizeQuery, PointQuery, VerifyQuery, budget, configurations, error_responses, execute,
-                       names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc,
-                       split_names, verification_headers)
+                       NormalizeQuery, PlainJSONRoute, PointQuery, VerifyQuery, budget, configurations,
+                       error_responses, execute, names_headers, npy_response_doc, one_or_all, parse_point,
+                       plain_json, read_request, request_body_doc, split_names, verification_headers)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
 from ..metrics import record_configurations
 from ..npy import decode_q
@@ -32,7 +32,7 @@ from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, Ja
                        TaskRepresentationName)
 from ..settings import Settings
 
-router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
+router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)], route_class=PlainJSONRoute)
 
 _EMPTY = ('{"q": [...]}', "q")
 
@@ -69,12 +69,29 @@ async def read_jacobian_request(
     return await read_request(request, settings, JacobianRequest, npy=npy, empty=_EMPTY)
 
 
+async def _plain_fk(request: Request, model_id: str):
+    """``/fk`` with a JSON body and no query string (:class:`app.adapter.PlainJSONRoute`)."""
+    settings = request.app.state.settings
+    req = await read_request(request, settings, FKRequest, empty=_EMPTY)
+    return await execute(request, _forward_kinematics, model_id, req, request, request.app.state.registry, settings,
+                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+
+
+async def _plain_jacobian(request: Request, model_id: str):
+    """``/jacobian`` with a JSON body and no query string (:class:`app.adapter.PlainJSONRoute`)."""
+    settings = request.app.state.settings
+    req = await read_request(request, settings, JacobianRequest, empty=_EMPTY)
+    return await execute(request, _jacobian, model_id, req, request, request.app.state.registry, settings,
+                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+
+
 @router.post(
     "/models/{model_id}/fk", response_model=FKResponse,
     responses={200: npy_response_doc("(N, links, 4, 4) float64 poses T_world_link"), **error_responses()},
     openapi_extra=request_body_doc("FKRequest", FK_EXAMPLES, "np.save of a float64 array (N, dof) or (dof,); "
                                                               "options as query parameters"),
 )
+@plain_json(_plain_fk)
 async def forward_kinematics(model_id: ModelId, req: Annotated[FKRequest, Depends(read_fk_request)], request: Request,
                              registry: RegistryDep, settings: SettingsDep):
     """Poses `T_world_link` of links (default: the leaf links; `"all"`; or names) for one configuration or a batch.
@@ -116,6 +133,7 @@ def _forward_kinematics(model_id: str, req: FKRequest, request: Request, registr
     openapi_extra=request_body_doc("JacobianRequest", JACOBIAN_EXAMPLES, "np.save of a float64 array (N, dof) or "
                                                                           "(dof,); options as query parameters"),
 )
+@plain_json(_plain_jacobian)
 async def jacobian(model_id: ModelId, req: Annotated[JacobianRequest, Depends(read_jacobian_request)],
                    request: Request, registry: RegistryDep, settings: SettingsDep):
     """Jacobian (6 x dof, linear rows first) of a link in `world`, `local` or `local_world_aligned`.

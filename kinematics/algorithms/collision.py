@@ -57,6 +57,8 @@ from ..model.robot import RobotModel
 
 #: the broad phase's slack (m): spheres this much apart still go to the narrow phase (round-off)
 BROAD_PHASE_SLACK = 1e-9
+#: the hull filter's slack (m): hulls closer than margin + this go on to the meshes (GJK's tolerance)
+HULL_SLACK = 1e-4
 #: the most shape pairs one check looks at, and the most (configuration, shape pair) values of one chunk
 MAX_SHAPE_PAIRS = 2_000_000
 MAX_CHUNK_VALUES = 8_000_000
@@ -216,11 +218,11 @@ def _boxes_overlap(Wa, ha, Wb, hb) -> np.ndarray:
     (15 axes, Gottschalk et al.), vectorised; True where they may touch."""
     Ra, Rb = Wa[:, :3, :3], Wb[:, :3, :3]
     wa, wb = Wa[:, :3, 3], Wb[:, :3, 3]
-    R = np.einsum("kji,kjl->kil", Ra, Rb)  # b's axes in a's frame
+    R = Ra.transpose(0, 2, 1) @ Rb  # b's axes in a's frame
     t = np.einsum("kji,kj->ki", Ra, wb - wa)  # b's centre in a's frame
     absR = np.abs(R) + 1e-12
-    apart = np.any(np.abs(t) > ha + np.einsum("kij,kj->ki", absR, hb), axis=1)
-    apart |= np.any(np.abs(np.einsum("kji,kj->ki", R, t)) > np.einsum("kji,kj->ki", absR, ha) + hb, axis=1)
+    apart = np.any(np.abs(t) > ha + (absR @ hb[:, :, None])[..., 0], axis=1)
+    apart |= np.any(np.abs((t[:, None, :] @ R)[:, 0]) > (ha[:, None, :] @ absR)[:, 0] + hb, axis=1)
     for i in range(3):
         i1, i2 = (i + 1) % 3, (i + 2) % 3
         for j in range(3):
@@ -328,6 +330,42 @@ class CollisionModel:
                     owner.append(k)
         return np.array(sp, dtype=np.intp).reshape(-1, 2), np.array(owner, dtype=np.intp)
 
+    def _narrow_phase(self, R_ab, p_ab, cn, K, cq, A, B, start, nP, narrow, creq, hreq, tf_id, tf_b,
+                      colliding, hits, stop_at_first, P) -> None:
+        """coal on the candidates of one chunk: shape ``B[c]`` placed at ``(R_ab[c], p_ab[c])`` in
+        shape ``A[c]``'s frame, configuration ``start + cn[c]``, link pair ``K[c]``, shape pair
+        ``cq[c]``; the hulls first where a shape has one, the shapes themselves if they touch."""
+        objs, bounds, links = self._objects, self._bounds, self.links
+        done = bytearray((max(cn, default=-1) + 1) * nP)  # (row, link pair) found colliding
+        res = coal.CollisionResult()
+        fresh = True  # coal adds contacts to a result and stops once it holds num_max_contacts: clear after a hit
+        for r, t, n, k, q, a, b in zip(R_ab, p_ab, cn, K, cq, A, B):
+            if done[n * nP + k] or (stop_at_first and colliding[start + n]):
+                continue
+            fns = narrow.get(q)
+            if fns is None:
+                ba, bb = bounds[a], bounds[b]
+                hull = (None if ba is None and bb is None
+                        else coal.ComputeCollision(objs[a] if ba is None else ba, objs[b] if bb is None else bb))
+                fns = narrow[q] = (hull, coal.ComputeCollision(objs[a], objs[b]))
+            tf_b.setRotation(r)
+            tf_b.setTranslation(t)
+            if fns[0] is not None:  # hulls apart: the meshes inside them are too
+                if not fresh:
+                    res.clear()
+                fresh = not fns[0](tf_id, tf_b, hreq, res)
+                if fresh:
+                    continue
+                res.clear()
+            elif not fresh:
+                res.clear()
+            fresh = not fns[1](tf_id, tf_b, creq, res)
+            if not fresh:
+                done[n * nP + k] = 1
+                colliding[start + n] = True
+                i, j = P[k]
+                hits[start + n].append((links[i], links[j]))
+
     def check(self, Q, pairs: Sequence[tuple[str, str]] | np.ndarray | None = None, *, margin: float = 0.0,
               distance: bool = False, stop_at_first: bool = False,
               progress: Callable[[int], None] | None = None, chunk: int = 8192) -> CollisionResult:
@@ -357,57 +395,43 @@ class CollisionModel:
         creq.security_margin = float(margin)
         creq.enable_contact = False
         creq.num_max_contacts = 1
-        # the hull filter asks for contacts: without them coal's GJK can call deeply overlapping
-        # hulls apart (seen on adjacent links), and the filter must never reject a real collision
+        # the hull filter: GJK alone (no contacts) on the hulls, with HULL_SLACK added to the margin:
+        # GJK's tolerance can call hulls that touch to ~1e-5 m apart, so only hulls apart by more
+        # than the slack are taken as a proof that the meshes inside them are
         hreq = coal.CollisionRequest()
-        hreq.security_margin = float(margin)
-        hreq.enable_contact = True
+        hreq.security_margin = float(margin) + HULL_SLACK
+        hreq.enable_contact = False
         hreq.num_max_contacts = 1
         dreq = coal.DistanceRequest()
         tf_a, tf_b = coal.Transform3s(), coal.Transform3s()
+        tf_id = coal.Transform3s()  # the narrow phase places shape b in shape a's frame
         cres, dres = coal.CollisionResult(), coal.DistanceResult()
+        narrow: dict[tuple[int, int], tuple] = {}  # per shape pair: coal's collision functors (this call's own)
         reach = float(margin) + BROAD_PHASE_SLACK
         objs, bounds = self._objects, self._bounds
         links = self.links
         for start in range(0, N, chunk):
             T = self.link_poses(Q[start:start + chunk])
             n_rows = len(T)
-            W = np.einsum("nsij,sjk->nsik", T[:, self._shape_link], self._origins)  # (n, S, 4, 4) shapes in the world
-            C = np.einsum("nsij,sj->nsi", W[:, :, :3, :3], self._centres) + W[:, :, :3, 3]
+            W = T[:, self._shape_link] @ self._origins  # (n, S, 4, 4) shapes in the world (matmul: einsum's 4x time)
+            C = (W[:, :, :3, :3] @ self._centres[:, :, None])[..., 0] + W[:, :, :3, 3]
             if len(SP):
                 gap = np.linalg.norm(C[:, SP[:, 0]] - C[:, SP[:, 1]], axis=2) - self._radii[SP[:, 0]] - self._radii[SP[:, 1]]
             else:
                 gap = np.zeros((n_rows, 0))
             nP = len(P)
-            done = bytearray(n_rows * nP)  # (configuration, link pair) decided colliding
             cq, cn = np.nonzero(gap.T <= reach)  # pair by pair: one pair's meshes stay in the caches
             if len(cn):
                 A, B = SP[cq, 0], SP[cq, 1]
-                keep = _boxes_overlap(W[cn, A] @ self._box[A], self._half[A] + reach,
-                                      W[cn, B] @ self._box[B], self._half[B])
-                cn, cq, A, B = cn[keep], cq[keep], A[keep], B[keep]
-                Ra, pa = np.ascontiguousarray(W[cn, A, :3, :3]), np.ascontiguousarray(W[cn, A, :3, 3])
-                Rb, pb = np.ascontiguousarray(W[cn, B, :3, :3]), np.ascontiguousarray(W[cn, B, :3, 3])
-                K = owner[cq]
-                for ra, ta, rb, tb, n, k, a, b in zip(Ra, pa, Rb, pb, cn.tolist(), K.tolist(), A.tolist(), B.tolist()):
-                    if done[n * nP + k] or (stop_at_first and colliding[start + n]):
-                        continue
-                    tf_a.setRotation(ra)
-                    tf_a.setTranslation(ta)
-                    tf_b.setRotation(rb)
-                    tf_b.setTranslation(tb)
-                    ba, bb = bounds[a], bounds[b]
-                    if ba is not None or bb is not None:  # hulls apart: the meshes inside them are too
-                        cres.clear()
-                        if not coal.collide(objs[a] if ba is None else ba, tf_a, objs[b] if bb is None else bb, tf_b,
-                                            hreq, cres):
-                            continue
-                    cres.clear()
-                    if coal.collide(objs[a], tf_a, objs[b], tf_b, creq, cres):
-                        done[n * nP + k] = 1
-                        colliding[start + n] = True
-                        i, j = P[k]
-                        hits[start + n].append((links[i], links[j]))
+                Wa, Wb = W[cn, A], W[cn, B]
+                keep = _boxes_overlap(Wa @ self._box[A], self._half[A] + reach, Wb @ self._box[B], self._half[B])
+                cn, cq, A, B, Wa, Wb = cn[keep], cq[keep], A[keep], B[keep], Wa[keep], Wb[keep]
+                # T_a_b = T_world_a^-1 T_world_b: one transform to hand over per call
+                Ra = Wa[:, :3, :3]
+                R_ab = list(Ra.transpose(0, 2, 1) @ Wb[:, :3, :3])
+                p_ab = list(np.einsum("kji,kj->ki", Ra, Wb[:, :3, 3] - Wa[:, :3, 3]))
+                self._narrow_phase(R_ab, p_ab, cn.tolist(), owner[cq].tolist(), cq.tolist(), A.tolist(), B.tolist(),
+                                   start, nP, narrow, creq, hreq, tf_id, tf_b, colliding, hits, stop_at_first, P)
             if distance and len(SP):
                 for n in range(n_rows):
                     order = np.argsort(gap[n], kind="stable")
@@ -441,7 +465,8 @@ class CollisionModel:
             if progress is not None:
                 progress(min(start + chunk, N))
         for row in hits:  # a pair's order in links, the pairs in the order given
-            row.sort(key=lambda ab: (self.link_index[ab[0]], self.link_index[ab[1]]))
+            if len(row) > 1:
+                row.sort(key=lambda ab: (self.link_index[ab[0]], self.link_index[ab[1]]))
         return CollisionResult(colliding, hits, dmin, closest, points)
 
 
