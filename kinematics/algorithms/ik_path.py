@@ -74,9 +74,13 @@ def interpolate(waypoints: np.ndarray, step_position: float, step_rotation: floa
     for a, b in zip(W[:-1], W[1:]):
         dp = b[:3, 3] - a[:3, 3]
         w = so3_log(a[:3, :3].T @ b[:3, :3])
-        n = max(1, int(np.ceil(np.linalg.norm(dp) / step_position - 1e-9)), int(np.ceil(np.linalg.norm(w) / step_rotation - 1e-9)))
-        if len(out) + n > MAX_TARGETS:
+        # counted in floats first: a tiny step gives an infinite count, which is refused, not converted
+        with np.errstate(over="ignore"):
+            steps = max(1.0, np.ceil(np.linalg.norm(dp) / step_position - 1e-9),
+                        np.ceil(np.linalg.norm(w) / step_rotation - 1e-9))
+        if not len(out) + steps <= MAX_TARGETS:
             raise KinematicsError(f"step: the path would have more than {MAX_TARGETS} targets; take larger steps")
+        n = int(steps)
         s = np.arange(1, n + 1) / n
         T = np.zeros((n, 4, 4))
         T[:, :3, 3] = a[:3, 3] + s[:, None] * dp

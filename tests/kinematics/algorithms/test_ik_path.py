@@ -102,3 +102,12 @@ def test_a_chain_without_a_closed_form_uses_continuation():
     T1 = T0.copy(); T1[:3, 3] += [-0.05, 0.05, 0.0]
     ans = cartesian_path(planar, link, np.array([T0, T1]), q)
     assert ans.complete and ans.family == "planar" and ans.max_joint_step < 0.3
+
+
+def test_a_step_so_small_the_count_overflows_is_refused_by_name():
+    """5e-324 m (the smallest double) between targets: the count is infinite, refused, never converted."""
+    W = np.stack([np.eye(4)] * 2)
+    W[1, 0, 3] = 0.05
+    with pytest.raises(KinematicsError, match="step: the path would have more than"):
+        interpolate(W, 5e-324, 0.05)
+    assert len(interpolate(W, 0.01, 0.05)[0]) == 6
