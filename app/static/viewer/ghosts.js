@@ -326,8 +326,9 @@ export function ghostAt(x, y) {
   return o ? o.userData.index : -1;
 }
 
-/** Canvas (CSS pixel) points on ghost `index` where it is the first ghost hit: its rods' midpoints
- * and joint knobs, seen from the camera now (for a real click in the tests). */
+/** Canvas (CSS pixel) points on ghost `index` where it is the first ghost hit: points inside its rods,
+ * knobs and link meshes (a grid in each one's bounding box), seen from the camera now (for a real
+ * click in the tests; with real meshes the other ghosts hide much of each one). */
 export function ghostPoints(index) {
   const ghost = ghostRoot.children.find((g) => g.userData.index === index);
   if (!ghost) return [];
@@ -335,16 +336,22 @@ export function ghostPoints(index) {
   camera.updateMatrixWorld();
   ghost.updateMatrixWorld(true);
   const points = [];
-  for (const mesh of ghost.children) {
-    if (!mesh.isMesh) continue;
-    const local = mesh.geometry === rodGeometry ? new THREE.Vector3(0, 0, 0.5) : new THREE.Vector3();
-    const p = mesh.localToWorld(local).project(camera);
-    const x = (p.x + 1) / 2 * rect.width;
-    const y = (1 - p.y) / 2 * rect.height;
-    if (x > 2 && y > 2 && x < rect.width - 2 && y < rect.height - 2 && ghostAt(x, y) === index) {
-      points.push({ x: rect.left + x, y: rect.top + y });
+  const fractions = [0.25, 0.5, 0.75];
+  ghost.traverse((mesh) => {
+    if (!mesh.isMesh || points.length >= 20) return;
+    if (!mesh.geometry.boundingBox) mesh.geometry.computeBoundingBox();
+    const { min, max } = mesh.geometry.boundingBox;
+    for (const fx of fractions) for (const fy of fractions) for (const fz of fractions) {
+      const local = new THREE.Vector3(min.x + fx * (max.x - min.x), min.y + fy * (max.y - min.y),
+                                      min.z + fz * (max.z - min.z));
+      const p = mesh.localToWorld(local).project(camera);
+      const x = (p.x + 1) / 2 * rect.width;
+      const y = (1 - p.y) / 2 * rect.height;
+      if (x > 2 && y > 2 && x < rect.width - 2 && y < rect.height - 2 && ghostAt(x, y) === index) {
+        points.push({ x: rect.left + x, y: rect.top + y });
+      }
     }
-  }
+  });
   return points;
 }
 
