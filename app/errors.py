@@ -204,6 +204,7 @@ def _names_given_as_string(errors: list[dict]) -> tuple[str, str] | None:
 _PATTERN_HINTS = {
     "arg": "is not name:value (a xacro argument: a name, then ':' or '=', then the value)",
     "point": "is not three comma-separated numbers x,y,z (metres, link frame)",
+    "locked": "is not joint:value (a joint name, ':', then its value: radians or metres)",
 }
 
 
