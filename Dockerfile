@@ -54,28 +54,24 @@ RUN --mount=type=cache,target=/root/.cache/pip \
     && pip install -q '.[all]' \
     && pip uninstall -y -q kinematics-service \
     && rm -rf kinematics app models build *.egg-info
-# What the service never reads, removed from the venv (~600 MB): the meshes of the
-# example-robot-data URDFs (the service never opens files a URDF names; the URDFs and
-# SRDFs stay), C++ headers, CMake files and static libraries of the Pinocchio wheels,
-# numba's and llvmlite's own test suites, and the packaging tools.
+# What the service never reads, removed from the venv: C++ headers, CMake files and static
+# libraries of the Pinocchio wheels, numba's and llvmlite's own test suites. The meshes of the
+# example-robot-data URDFs stay: self-collision and the viewer read the catalogue's meshes from
+# the installed package (never a path an upload names).
 RUN cd /opt/venv/lib/python3*/site-packages/cmeel.prefix \
     && rm -rf include share/cmake share/doc lib/cmake lib/pkgconfig lib64/cmake lib64/pkgconfig \
     && find . -name '*.a' -delete \
-    && find share/example-robot-data -type f \( -iname '*.stl' -o -iname '*.dae' -o -iname '*.obj' \
-         -o -iname '*.mtl' -o -iname '*.ply' -o -iname '*.png' -o -iname '*.jpg' \) -delete \
     && rm -rf ../numba/tests ../llvmlite/tests
-# yourdfpy pulls in trimesh[easy]: mesh processing libraries (scipy, embree, pillow, shapely,
-# ...; ~250 MB) that trimesh imports only to load or process meshes, which this service
-# never does. The build checks below (parity of the catalogue with Pinocchio) prove the
-# URDF path works without them.
-RUN pip uninstall -y -q scipy embreex pillow networkx shapely manifold3d rtree vhacdx \
-        mapbox-earcut svg.path pycollada xxhash
+# yourdfpy pulls in trimesh[easy]: mesh processing libraries that trimesh imports only to
+# process meshes, which this service never does (it reads STL, OBJ and Collada: numpy and
+# pycollada). scipy stays (calibration), pillow stays (matplotlib's plots), pycollada stays.
+RUN pip uninstall -y -q embreex networkx shapely manifold3d rtree vhacdx mapbox-earcut svg.path xxhash
 COPY kinematics ./kinematics
 COPY app ./app
 COPY models ./models
 RUN --mount=type=cache,target=/root/.cache/pip \
     pip install -q --no-deps --no-build-isolation . \
-    && python -c 'import kinematics, app.main; print("kinematics", kinematics.__version__)' \
+    && python -c 'import kinematics, app.main, scipy, coal, trimesh, collada; print("kinematics", kinematics.__version__)' \
     && NUMBA_CACHE_DIR=/tmp/numba-build kinematics check --samples 1 | tail -1 \
     && pip uninstall -y -q pip setuptools wheel \
     && rm -rf /src

@@ -2,7 +2,8 @@
 # Smoke test of a running service (the container CI starts with container-check KEEP=1):
 #   .ci/smoke.sh [BASE_URL]        (default http://127.0.0.1:8000)
 # Checks /health, FK and a Jacobian on ur5 (against the library computed here, and the
-# closed value of UR5 at q = 0), a DH table upload (201) and FK on it against the closed
+# closed value of UR5 at q = 0), every IK solution of a UR5 pose, self-collision on the catalogue's
+# meshes and calibration poses (scipy), a DH table upload (201) and FK on it against the closed
 # form of the 2R planar arm with verify=true (Pinocchio inside the container), the docs
 # page /docs (HTML, every asset it references served by the service: docs work offline).
 # Exits non-zero on the first failure. Uses only the Python standard library (plus the
@@ -130,6 +131,27 @@ if ikr["verification"]["position_error"] > 1e-6:
     fail(f"Pinocchio disagrees with the IK answer: {ikr['verification']}")
 ok(f"POST /models/ur5/ik {ms:.0f} ms: solved in {ikr['iterations']} iterations; FK of the answer is the target "
    f"(position error {ikr['position_error']:.1e} m, Pinocchio {ikr['verification']['position_error']:.1e} m)")
+
+# ---------------------------------------------------------------- every IK solution, self-collision, calibration
+# the UR5 at Q[1] reached in every way: 8 branches, the generating configuration among them (modulo 2 pi)
+_, fk1, _ = get_json("POST", "/models/ur5/fk", {"q": Q[1], "links": ["tool0"]})
+_, alls, ms = get_json("POST", "/models/ur5/ik", {"link": "tool0", "target": fk1["poses"]["tool0"]["matrix"],
+                                                  "solutions": "all", "limits": "ignore"})
+if alls.get("family") != "three_parallel" or alls.get("count") != 8:
+    fail(f"ur5 every IK solution: family {alls.get('family')!r}, count {alls.get('count')!r} (expected three_parallel, 8)")
+wrap = lambda a: (a + math.pi) % (2 * math.pi) - math.pi
+if not any(all(abs(wrap(x - y)) < 1e-9 for x, y in zip(s["q"], Q[1])) for s in alls["solutions"]):
+    fail("ur5 every IK solution: the generating configuration is not among them")
+ok(f"POST /models/ur5/ik solutions all {ms:.0f} ms: three_parallel, 8 solutions, the generating one among them")
+# the elbow shut: the UR5's upper arm and wrist meshes meet (catalogue meshes inside the image)
+_, col, ms = get_json("POST", "/models/ur5/collision", {"q": [[0, -1.2, 0, 0, 0, 0], [0, -1.2, 3.1, 0, 0, 0]]})
+if col.get("colliding") != [False, True]:
+    fail(f"ur5 self-collision: colliding {col.get('colliding')!r}, expected [False, True]")
+ok(f"POST /models/ur5/collision {ms:.0f} ms: stretched free, elbow shut colliding {col['pairs'][1]}")
+_, poses, ms = get_json("POST", "/models/ur5/calibration/poses", {"link": "tool0", "n": 8})
+if len(poses.get("q", [])) != 8:
+    fail(f"ur5 calibration poses: {poses}")
+ok(f"POST /models/ur5/calibration/poses {ms:.0f} ms: 8 configurations chosen (scipy in the image)")
 
 # ---------------------------------------------------------------- DH upload + FK
 l1, l2 = 0.7, 0.45
