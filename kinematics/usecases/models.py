@@ -66,6 +66,14 @@ def warm_up() -> None:
     velocity(model, [0.0], [0.0])
     workspace(model, "arm", samples=8)
     ik(model, pose, link="arm")
+    # every IK solution: the closed forms of three parallel axes and of spherical wrists (a revolute and a
+    # prismatic third joint) and the compiled polish, limits ignored and with every 2 pi copy (engine/ik_fast.py,
+    # engine/ik_polish.py: a server's first every-solution request would compile them for half a minute)
+    for preset in ("ur5_dh", "puma560_standard", "stanford_arm"):
+        arm = default_catalogue().get(preset)
+        target = fk(arm, [0.3] * arm.dof).poses[0, -1]
+        ik(arm, target, solutions="all", limits="ignore")
+        ik(arm, target, solutions="all", limits="respect")
     # a floating base: the kernels below a floating root joint (engine/rooted.py)
     fk(model, model_for(model, floating_base=True).neutral, floating_base=True)
     jacobian(model, model_for(model, floating_base=True).neutral, link="arm", floating_base=True)
