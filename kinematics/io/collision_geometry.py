@@ -351,11 +351,15 @@ def _primitive(kind: str, g) -> tuple[float, ...]:
     return size
 
 
-def geometry_elements(root, links, tag: str):
-    """Yield ``(link name, element, kind, shape element)`` for every ``<tag>`` (``collision`` or
-    ``visual``) of a ``<link>`` of ``root`` named in ``links``, in document order. ``kind`` is the
-    tag of the element's first ``<geometry>`` child (``box``, ``mesh``, ...), None when there is
-    none; the shape element is that child (None likewise)."""
+def geometry_elements(root, links, tag: str, primitives: tuple[str, ...], unknown: str, warnings: list[str],
+                      max_scale: float | None = None):
+    """Read every ``<tag>`` (``collision`` or ``visual``) of a ``<link>`` of ``root`` named in
+    ``links``, in document order: yield ``(link name, element, kind, origin, size, filename, scale)``
+    -- ``kind`` the tag of its ``<geometry>`` child, ``origin`` (4, 4) ``T_link_element``, ``size``
+    a primitive's dimensions (``kind`` in ``primitives``; None for a mesh), ``filename`` and
+    ``scale`` a ``<mesh>``'s (None for a primitive). An element that cannot be read is skipped
+    and named in ``warnings`` (any other kind: "<tag> <kind> ``unknown``"; a mesh scale beyond
+    ``max_scale`` counts as unreadable)."""
     known = set(links)
     for link in root.findall("link"):
         lname = link.get("name")
@@ -365,7 +369,22 @@ def geometry_elements(root, links, tag: str):
             geom = el.find("geometry")
             shape_el = geom[0] if geom is not None and len(geom) else None
             kind = shape_el.tag if shape_el is not None and isinstance(shape_el.tag, str) else None
-            yield lname, el, kind, shape_el
+            try:
+                origin = _origin(el)
+                if kind in primitives:
+                    yield lname, el, kind, origin, _primitive(kind, shape_el), None, None
+                    continue
+                if kind != "mesh":
+                    warnings.append(f"link {lname!r}: <{tag}> " + (f"<{kind}>" if kind else "without geometry")
+                                    + " " + unknown)
+                    continue
+                filename, scale = mesh_reference(shape_el)
+                if max_scale is not None and not all(math.isfinite(s) and abs(s) <= max_scale for s in scale):
+                    raise ValueError(f"<mesh scale> {scale} is out of range")
+            except (ValueError, TypeError) as exc:
+                warnings.append(f"link {lname!r}: <{tag}> skipped ({exc})")
+                continue
+            yield lname, el, kind, origin, None, filename, scale
 
 
 def mesh_reference(shape_el) -> tuple[str, tuple[float, float, float]]:
@@ -386,19 +405,11 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
         return CollisionGeometry({}, ("the model's URDF text could not be re-read for its collision geometry",))
     per_link: dict[str, list[Shape]] = {}
     warnings: list[str] = []
-    for lname, el, kind, shape_el in geometry_elements(root, model.links, "collision"):
-        try:
-            origin = _origin(el)
-            if kind in ("box", "cylinder", "sphere", "capsule"):
-                per_link.setdefault(lname, []).append(Shape(kind, origin, _primitive(kind, shape_el)))
-                continue
-            if kind != "mesh":
-                warnings.append(f"link {lname!r}: <collision> " + (f"<{kind}>" if kind else "without geometry")
-                                + " is not a shape this product reads; skipped")
-                continue
-            filename, scale = mesh_reference(shape_el)
-        except (ValueError, TypeError) as exc:
-            warnings.append(f"link {lname!r}: <collision> skipped ({exc})")
+    for lname, _, kind, origin, size, filename, scale in geometry_elements(
+            root, model.links, "collision", ("box", "cylinder", "sphere", "capsule"),
+            "is not a shape this product reads; skipped", warnings):
+        if size is not None:
+            per_link.setdefault(lname, []).append(Shape(kind, origin, size))
             continue
         try:
             path, data, fmt = resolve_mesh(source, filename)

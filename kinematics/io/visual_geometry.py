@@ -29,7 +29,6 @@ of that name), or None (a mesh then keeps its own materials).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -38,8 +37,7 @@ import numpy as np
 
 from ..errors import UnknownMeshError, URDFError
 from ..model.robot import RobotModel
-from .collision_geometry import (MAX_MESH_BYTES, _numbers, _origin, _primitive, geometry_elements, mesh_reference,
-                                 model_meshes, resolve_mesh)
+from .collision_geometry import MAX_MESH_BYTES, _numbers, geometry_elements, model_meshes, resolve_mesh
 from .urdf import _read_xml
 
 #: the media type of each mesh format served
@@ -118,26 +116,18 @@ def visual_geometry(model: RobotModel) -> VisualGeometry:
     per_link: dict[str, list[VisualElement]] = {}
     warnings: list[str] = []
     count = 0
-    for lname, el, kind, shape_el in geometry_elements(root, model.links, "visual"):
+    for lname, el, kind, origin, size, filename, scale in geometry_elements(
+            root, model.links, "visual", ("box", "cylinder", "sphere"), "is not drawn", warnings, max_scale=1e3):
+        mat = el.find("material")
         try:
-            origin = _origin(el)
-            mat = el.find("material")
             color = _color(mat)
-            if color is None and mat is not None:
-                color = named.get(mat.get("name") or "")
-            if kind in ("box", "cylinder", "sphere"):
-                per_link.setdefault(lname, []).append(VisualElement(kind, origin, _primitive(kind, shape_el),
-                                                                    color=color))
-                continue
-            if kind != "mesh":
-                warnings.append(f"link {lname!r}: <visual> " + (f"<{kind}>" if kind else "without geometry")
-                                + " is not drawn")
-                continue
-            filename, scale = mesh_reference(shape_el)
-            if not all(math.isfinite(s) and abs(s) <= 1e3 for s in scale):
-                raise ValueError(f"<mesh scale> {scale} is out of range")
         except (ValueError, TypeError) as exc:
             warnings.append(f"link {lname!r}: <visual> skipped ({exc})")
+            continue
+        if color is None and mat is not None:
+            color = named.get(mat.get("name") or "")
+        if size is not None:
+            per_link.setdefault(lname, []).append(VisualElement(kind, origin, size, color=color))
             continue
         try:
             path, data, fmt = resolve_mesh(source, filename)
