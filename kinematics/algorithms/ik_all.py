@@ -50,9 +50,9 @@ from ..errors import KinematicsError
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
-from ..tolerances import LIMIT_TOLERANCE
+from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
 from . import ik_general
-from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
+from .ik import pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain, validate_locked
 
 LIMIT_POLICIES = ("respect", "ignore")
