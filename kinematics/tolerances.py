@@ -28,3 +28,14 @@ REPRESENTATION_SINGULARITY_TOLERANCE = 1e-9
 #: from 1 in given joint values (they are then scaled to exactly 1; beyond it they are refused
 #: unless the request asks to normalize).
 UNIT_NORM_TOLERANCE = 1e-6
+#: Default IK tolerances: metres, and radians of the rotation between answer and target.
+DEFAULT_POSITION_TOLERANCE = 1e-6
+DEFAULT_ROTATION_TOLERANCE = 1e-6
+#: IK tolerances below this are refused: no FK is that exact.
+MIN_TOLERANCE = 1e-12
+#: The smallest damping λ of a damped least-squares IK step (added to ½|e|²): keeps steps
+#: bounded at singular configurations.
+DAMPING = 1e-9
+#: An IK attempt goes on until its errors are this fraction of the tolerances (one more cheap
+#: step near convergence), so that answers are not on the edge of their tolerance.
+POLISH = 1e-3

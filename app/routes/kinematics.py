@@ -69,29 +69,34 @@ async def read_jacobian_request(
     return await read_request(request, settings, JacobianRequest, npy=npy, empty=_EMPTY)
 
 
-async def _plain_fk(request: Request, model_id: str):
-    """``/fk`` with a JSON body and no query string (:class:`app.adapter.PlainJSONRoute`)."""
-    settings = request.app.state.settings
-    req = await read_request(request, settings, FKRequest, empty=_EMPTY)
-    return await execute(request, _forward_kinematics, model_id, req, request, request.app.state.registry, settings,
-                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+_NPY_BODY = "np.save of a float64 array (N, dof) or (dof,); options as query parameters"
 
 
-async def _plain_jacobian(request: Request, model_id: str):
-    """``/jacobian`` with a JSON body and no query string (:class:`app.adapter.PlainJSONRoute`)."""
-    settings = request.app.state.settings
-    req = await read_request(request, settings, JacobianRequest, empty=_EMPTY)
-    return await execute(request, _jacobian, model_id, req, request, request.app.state.registry, settings,
-                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+def _batch_route(path: str, response_model, npy_answer: str, schema, examples):
+    """``POST path`` taking JSON or ``.npy`` (``npy_answer`` describes the ``.npy`` answer), and a
+    plain JSON body with no query string read straight into ``schema`` and handed to the same
+    endpoint (:class:`app.adapter.PlainJSONRoute`)."""
+    def declare(endpoint):
+        async def plain(request: Request, model_id: str):
+            settings = request.app.state.settings
+            req = await read_request(request, settings, schema, empty=_EMPTY)
+            return await endpoint(model_id, req, request, request.app.state.registry, settings)
+
+        route = router.post(path, response_model=response_model,
+                            responses={200: npy_response_doc(npy_answer), **error_responses()},
+                            openapi_extra=request_body_doc(schema.__name__, examples, _NPY_BODY))
+        return route(plain_json(plain)(endpoint))
+    return declare
 
 
-@router.post(
-    "/models/{model_id}/fk", response_model=FKResponse,
-    responses={200: npy_response_doc("(N, links, 4, 4) float64 poses T_world_link"), **error_responses()},
-    openapi_extra=request_body_doc("FKRequest", FK_EXAMPLES, "np.save of a float64 array (N, dof) or (dof,); "
-                                                              "options as query parameters"),
-)
-@plain_json(_plain_fk)
+def _run(handler, model_id: str, req, request: Request, registry, settings: Settings):
+    """``handler`` inline for a small batch, in the heavy pool otherwise (:func:`app.adapter.execute`)."""
+    return execute(request, handler, model_id, req, request, registry, settings,
+                   inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+
+
+@_batch_route("/models/{model_id}/fk", FKResponse, "(N, links, 4, 4) float64 poses T_world_link", FKRequest,
+              FK_EXAMPLES)
 async def forward_kinematics(model_id: ModelId, req: Annotated[FKRequest, Depends(read_fk_request)], request: Request,
                              registry: RegistryDep, settings: SettingsDep):
     """Poses `T_world_link` of links (default: the leaf links; `"all"`; or names) for one configuration or a batch.
@@ -104,8 +109,7 @@ async def forward_kinematics(model_id: ModelId, req: Annotated[FKRequest, Depend
     link frame) or `tool` (a pose `T_link_tool`) give the poses of that frame instead
     (`T_world_link @ T_link_tool`, on every link returned).
     """
-    return await execute(request, _forward_kinematics, model_id, req, request, registry, settings,
-                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+    return await _run(_forward_kinematics, model_id, req, request, registry, settings)
 
 
 def _forward_kinematics(model_id: str, req: FKRequest, request: Request, registry, settings: Settings):
@@ -127,13 +131,8 @@ def _forward_kinematics(model_id: str, req: FKRequest, request: Request, registr
     })
 
 
-@router.post(
-    "/models/{model_id}/jacobian", response_model=JacobianResponse,
-    responses={200: npy_response_doc("(N, 6, dof) float64 Jacobians, linear rows first"), **error_responses()},
-    openapi_extra=request_body_doc("JacobianRequest", JACOBIAN_EXAMPLES, "np.save of a float64 array (N, dof) or "
-                                                                          "(dof,); options as query parameters"),
-)
-@plain_json(_plain_jacobian)
+@_batch_route("/models/{model_id}/jacobian", JacobianResponse, "(N, 6, dof) float64 Jacobians, linear rows first",
+              JacobianRequest, JACOBIAN_EXAMPLES)
 async def jacobian(model_id: ModelId, req: Annotated[JacobianRequest, Depends(read_jacobian_request)],
                    request: Request, registry: RegistryDep, settings: SettingsDep):
     """Jacobian (6 x dof, linear rows first) of a link in `world`, `local` or `local_world_aligned`.
@@ -148,8 +147,7 @@ async def jacobian(model_id: ModelId, req: Annotated[JacobianRequest, Depends(re
     representation 422 `representation-singularity`. `.npy`: `?representation=`, answer (N, m, dof + 1),
     `[J_r | r]`, rows named in `X-Components`.
     """
-    return await execute(request, _jacobian, model_id, req, request, registry, settings,
-                         inline=configurations(req.q) <= INLINE_MAX_CONFIGURATIONS)
+    return await _run(_jacobian, model_id, req, request, registry, settings)
 
 
 def _conditioning(answer, one) -> dict:

@@ -36,27 +36,24 @@ from ..engine.poe import compile_model
 from ..errors import KinematicsError
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
-from ..tolerances import LIMIT_TOLERANCE
+from ..tolerances import (  # noqa: F401  (the IK tolerances are part of this module's interface)
+    DAMPING,
+    DEFAULT_POSITION_TOLERANCE,
+    DEFAULT_ROTATION_TOLERANCE,
+    LIMIT_TOLERANCE,
+    MIN_TOLERANCE,
+    POLISH,
+)
 from ..spatial.rotations import rotation_angle
 from ..spatial.transforms import inverse_transform
 
 #: what a target constrains: the full pose, or the position only (orientation free)
 IK_MODES = ("pose", "position")
-#: default tolerances: metres, and radians of the rotation between answer and target
-DEFAULT_POSITION_TOLERANCE = 1e-6
-DEFAULT_ROTATION_TOLERANCE = 1e-6
 #: default steps per attempt and random restarts after the first attempt
 DEFAULT_MAX_ITERATIONS = 100
 DEFAULT_RESTARTS = 50
-#: the smallest damping λ (added to ½|e|²): keeps steps bounded at singular configurations
-DAMPING = 1e-9
-#: an attempt goes on until its errors are this fraction of the tolerances (one more cheap
-#: step near convergence), so that answers are not on the edge of their tolerance
-POLISH = 1e-3
 #: steps without a 1 % fall of the error after which an attempt counts as stuck and restarts
 STALL_STEPS = 12
-#: tolerances below this are refused: no FK is that exact
-MIN_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True, eq=False)

@@ -40,6 +40,7 @@ The Puma 560 reaches a generic pose in eight ways:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,9 +51,9 @@ from ..errors import KinematicsError
 from ..model.derived import PerModel
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
-from ..tolerances import LIMIT_TOLERANCE
+from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
 from . import ik_general
-from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
+from .ik import pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain, validate_locked
 
 LIMIT_POLICIES = ("respect", "ignore")
@@ -79,13 +80,12 @@ SINGULAR = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
-class AllSolutions:
-    """Every solution of N targets.
+class SolutionArrays:
+    """The solutions of N targets, padded to the largest count K.
 
-    q: (N, K, dof) padded with NaN (K the largest count); count: (N,); within_limits, singular:
-    (N, K) bool (False in padding); position_error (metres), rotation_error (radians): (N, K), NaN in
-    padding; family: the chain's :class:`~kinematics.algorithms.ik_families.Family`; method:
-    ``"analytic"`` or ``"search"``; complete: (N,) False where a near-family branch was lost.
+    q: (N, K, dof), NaN in padding; count: (N,); within_limits, singular: (N, K) bool (False in
+    padding); position_error (metres), rotation_error (radians): (N, K), NaN in padding;
+    complete: (N,) False where a near-family branch was lost.
     """
 
     q: np.ndarray
@@ -94,9 +94,22 @@ class AllSolutions:
     singular: np.ndarray
     position_error: np.ndarray
     rotation_error: np.ndarray
+    complete: np.ndarray
+
+    def solutions(self, n: int = 0) -> list[dict[str, Any]]:
+        """The solutions of target ``n`` as records ``{q, position_error, rotation_error, within_limits, singular}``."""
+        return [{"q": self.q[n, k].tolist(), "position_error": float(self.position_error[n, k]),
+                 "rotation_error": float(self.rotation_error[n, k]), "within_limits": bool(self.within_limits[n, k]),
+                 "singular": bool(self.singular[n, k])} for k in range(int(self.count[n]))]
+
+
+@dataclass(frozen=True, eq=False)
+class AllSolutions(SolutionArrays):
+    """Every solution of N targets (the arrays of :class:`SolutionArrays`): family, the chain's
+    :class:`~kinematics.algorithms.ik_families.Family`; method, ``"analytic"`` or ``"search"``."""
+
     family: Family
     method: str
-    complete: np.ndarray
 
 
 def _errors6(F: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -290,9 +303,9 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                 short = np.flatnonzero(found < nominal)
             if not (fam.near and short.size) and limits == "ignore" and seed is None:
                 K = int(found.max(initial=0))
-                return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K], fam,
-                                    "analytic" if fam.closed_form else "search",
-                                    found >= nominal if fam.near else np.ones(N, bool))
+                return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K],
+                                    found >= nominal if fam.near else np.ones(N, bool), fam,
+                                    "analytic" if fam.closed_form else "search")
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
@@ -575,4 +588,4 @@ def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, co
         singular[owner, slot] = sing
         pe[owner, slot] = p
         re[owner, slot] = r
-    return AllSolutions(q, count, within, singular, pe, re, fam, method, complete)
+    return AllSolutions(q, count, within, singular, pe, re, complete, fam, method)

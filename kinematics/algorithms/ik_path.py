@@ -38,8 +38,8 @@ from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.lie import so3_log
 from ..spatial.transforms import inverse_transform
-from ..tolerances import LIMIT_TOLERANCE
-from .ik import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, pose_errors
+from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
+from .ik import pose_errors
 from .ik_all import all_solutions, newton
 from .ik_families import detect, reduce_chain
 

@@ -296,14 +296,14 @@ def _link_frame(Fl, i, D, ref):
 
 
 @nb.njit(inline="always", **_JIT)
-def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
-    """Add the Jacobian (6, dof) of configuration ``i`` of the chunk's frames ``F`` into ``Ji``
-    (the link's pose is ``F[path[-1]] · D``)."""
-    k = path.shape[0]
-    Fl = F[path[k - 1]]
+def _path_columns(F, Fl, i, path, jint, jflt, cols, D, ref, Ji):
+    """Add the columns of the joints of ``path`` for configuration ``i`` of the chunk's frames ``F``
+    into ``Ji``, joint j's into column ``cols[j]`` times its multiplier, for the link whose pose is
+    ``Fl · D``; returns that link's frame (:func:`_link_frame`)."""
+    frame = _link_frame(Fl, i, D, ref)
     # the link's origin o and rotation R = R_world_L (F_last · D)
-    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = _link_frame(Fl, i, D, ref)
-    for jj in range(k):
+    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = frame
+    for jj in range(path.shape[0]):
         j = path[jj]
         vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
         if ref == REF_LOCAL:  # R^T v: component c = (column c of R) · v
@@ -311,7 +311,7 @@ def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
                           r02 * vx + r12 * vy + r22 * vz)
             ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
                           r02 * ax + r12 * ay + r22 * az)
-        col = jint[j, J_QINDEX]
+        col = cols[j]
         mu = jflt[j, J_MULT]
         Ji[0, col] += mu * vx
         Ji[1, col] += mu * vy
@@ -319,6 +319,14 @@ def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
         Ji[3, col] += mu * ax
         Ji[4, col] += mu * ay
         Ji[5, col] += mu * az
+    return frame
+
+
+@nb.njit(inline="always", **_JIT)
+def _jacobian_row(F, i, path, jint, jflt, D, ref, Ji):
+    """Add the Jacobian (6, dof) of configuration ``i`` of the chunk's frames ``F`` into ``Ji``
+    (the link's pose is ``F[path[-1]] · D``)."""
+    _path_columns(F, F[path[path.shape[0] - 1]], i, path, jint, jflt, jint[:, J_QINDEX], D, ref, Ji)
 
 
 # ---------------------------------------------------------------------- a floating root
@@ -355,18 +363,25 @@ def _base_frames(Q, a, m, qb, O, Fb):
             Fb[4 * r + 3, i] = o0 * px + o1 * py + o2 * pz + o3
 
 
+@nb.njit(inline="always", **_JIT)
+def _rooted_frames(Q, a, chunk, qb, O, joints, jint, jflt, F, W):
+    """The frames of the chunk of configurations from ``a`` (at most ``chunk``) of a model on a
+    floating root: the root's child ``F[n] = O · X(q[qb:qb+7])`` (:func:`_base_frames`), then
+    ``joints`` (:func:`_chunk_frames`); returns the chunk's size."""
+    m = min(chunk, Q.shape[0] - a)
+    _base_frames(Q, a, m, qb, O, F[jint.shape[0]])
+    _chunk_frames(Q, a, m, joints, jint, jflt, F, W)
+    return m
+
+
 @nb.njit(**_JIT)
 def fk_rooted(Q, jint, jflt, order, lj, D, out, chunk, qb, O):
     """:func:`fk` of a model on a floating root: Q (N, nq) the whole configuration (``jint``'s q
     indices point into it), frame ``n = len(jint)`` the floating joint's child (``O · X(q[qb:qb+7])``);
     ``lj`` may name it (``D = M_L``), or be -1 for a constant pose ``D``."""
-    N = Q.shape[0]
-    n = jint.shape[0]
-    F, W = _scratch(n + 1, chunk)
-    for a in range(0, N, chunk):
-        m = min(chunk, N - a)
-        _base_frames(Q, a, m, qb, O, F[n])
-        _chunk_frames(Q, a, m, order, jint, jflt, F, W)
+    F, W = _scratch(jint.shape[0] + 1, chunk)
+    for a in range(0, Q.shape[0], chunk):
+        m = _rooted_frames(Q, a, chunk, qb, O, order, jint, jflt, F, W)
         for i in range(m):
             _poses_row(F, i, lj, D, out[a + i])
     return out
@@ -379,13 +394,10 @@ def jacobian_rooted(Q, jint, jflt, vcol, path, D, ref, J, chunk, qb, vb, O):
     leader's velocity entry), the floating joint's six columns ``vb .. vb + 6`` are those of its
     child frame ``B = F[n]`` (twist in that frame, linear first): along and about B's axes at B's
     origin. ``path`` may be empty (a link no sub-tree joint moves: its pose is ``B · D``)."""
-    N = Q.shape[0]
     n = jint.shape[0]
     F, W = _scratch(n + 1, chunk)
-    for a in range(0, N, chunk):
-        m = min(chunk, N - a)
-        _base_frames(Q, a, m, qb, O, F[n])
-        _chunk_frames(Q, a, m, path, jint, jflt, F, W)
+    for a in range(0, Q.shape[0], chunk):
+        m = _rooted_frames(Q, a, chunk, qb, O, path, jint, jflt, F, W)
         for i in range(m):
             _rooted_jacobian_row(F, i, n, path, jint, jflt, vcol, D, ref, vb, J[a + i])
     return J
@@ -399,23 +411,8 @@ def _rooted_jacobian_row(F, i, n, path, jint, jflt, vcol, D, ref, vb, Ji):
             Ji[r, c] = 0.0
     k = path.shape[0]
     Fl = F[path[k - 1]] if k > 0 else F[n]
-    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = _link_frame(Fl, i, D, ref)
-    for jj in range(k):
-        j = path[jj]
-        vx, vy, vz, ax, ay, az = joint_column(F[j], i, jint[j, J_KIND] == REVOLUTE, ox, oy, oz)
-        if ref == REF_LOCAL:
-            vx, vy, vz = (r00 * vx + r10 * vy + r20 * vz, r01 * vx + r11 * vy + r21 * vz,
-                          r02 * vx + r12 * vy + r22 * vz)
-            ax, ay, az = (r00 * ax + r10 * ay + r20 * az, r01 * ax + r11 * ay + r21 * az,
-                          r02 * ax + r12 * ay + r22 * az)
-        col = vcol[j]
-        mu = jflt[j, J_MULT]
-        Ji[0, col] += mu * vx
-        Ji[1, col] += mu * vy
-        Ji[2, col] += mu * vz
-        Ji[3, col] += mu * ax
-        Ji[4, col] += mu * ay
-        Ji[5, col] += mu * az
+    ox, oy, oz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = _path_columns(F, Fl, i, path, jint, jflt, vcol, D, ref,
+                                                                            Ji)
     # the floating joint: translations along B's axes, rotations about them through B's origin
     Fb = F[n]
     bx, by, bz = Fb[3, i], Fb[7, i], Fb[11, i]

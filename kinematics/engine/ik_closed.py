@@ -37,6 +37,7 @@ import math
 import numba as nb
 import numpy as np
 
+from .ik_polish import close_rows
 from .subproblems import DEGENERATE, EXACT, cross, dot, rot, rotate, sp1, sp2, sp3, sp4
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -264,15 +265,7 @@ def distinct_rows(Q, ok, starts, columns, revolute, tolerance, keep):
             for j in range(starts[g], i):
                 if not keep[j]:
                     continue
-                far = False
-                for c in range(columns.shape[0]):
-                    d = Q[i, columns[c]] - Q[j, columns[c]]
-                    if revolute[c]:
-                        d = (d + math.pi) % (2.0 * math.pi) - math.pi
-                    if abs(d) > tolerance:
-                        far = True
-                        break
-                if not far:
+                if close_rows(Q[i], Q[j], columns, revolute, tolerance):
                     dup = True
                     break
             keep[i] = not dup

@@ -12,7 +12,8 @@ import numba as nb
 import numpy as np
 
 from .ik import rotation_log
-from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO
+from .ik_polish import damped_step
+from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO, sp2_image
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 
@@ -128,25 +129,9 @@ def sp4(h, p, k, d):
 @nb.njit(inline="always", **_JIT)
 def sp2(p1, p2, k1, k2):
     """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
-    c12 = dot(k1, k2)
-    s2 = 1.0 - c12 * c12
-    if s2 <= 1e-14:
+    base, n, g, count, flag = sp2_image(p1, p2, k1, k2)
+    if flag == DEGENERATE:
         return 0.0, 0.0, 0.0, 0.0, 1, DEGENERATE
-    h1, h2 = dot(k1, p1), dot(k2, p2)
-    alpha = (h1 - c12 * h2) / s2
-    beta = (h2 - c12 * h1) / s2
-    n = cross(k1, k2)
-    base = add(scale(alpha, k1), scale(beta, k2))
-    length2 = 0.5 * (dot(p1, p1) + dot(p2, p2))
-    g2 = (length2 - dot(base, base)) / s2
-    flag = EXACT
-    count = 2
-    sc = max(length2, 1.0)
-    if g2 < -1e-12 * sc:
-        flag, g2, count = LEAST_SQUARES, 0.0, 1
-    elif g2 <= 1e-12 * sc:
-        g2, count = 0.0, 1
-    g = math.sqrt(g2)
     x = add(base, scale(g, n))
     a0, f1 = sp1(p1, x, k1)
     b0, f2 = sp1(p2, x, k2)
@@ -168,6 +153,28 @@ def spread(ta, tb, n, flag, width):
     if flag == LEAST_SQUARES and n == 1 and width > 0.0:
         return ta - width, ta + width, 2
     return ta, tb, n
+
+
+@nb.njit(inline="always", **_JIT)
+def sp3_seeds(p1, p2, k, d, width):
+    """:func:`sp3` with a least-squares point as two seeds (:func:`spread`): (θa, θb, count, flag)."""
+    ta, tb, n, flag = sp3(p1, p2, k, d)
+    ta, tb, n = spread(ta, tb, n, flag, width)
+    return ta, tb, n, flag
+
+
+@nb.njit(inline="always", **_JIT)
+def sp4_seeds(h, p, k, d, width):
+    """:func:`sp4` with a least-squares point as two seeds (:func:`spread`): (θa, θb, count, flag)."""
+    ta, tb, n, flag = sp4(h, p, k, d)
+    ta, tb, n = spread(ta, tb, n, flag, width)
+    return ta, tb, n, flag
+
+
+@nb.njit(inline="always", **_JIT)
+def about(k, o, theta, p):
+    """The point ``p`` turned by θ about the line through ``o`` along the unit axis ``k``."""
+    return add(o, rot(k, theta, sub(p, o)))
 
 
 @nb.njit(inline="always", **_JIT)
@@ -202,14 +209,12 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
         g = G[t]
         p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
         n = 0
-        ta, tb, n1, f1 = sp4(h1, sub(p, r0), h0, dot(h1, sub(c, r0)))
-        ta, tb, n1 = spread(ta, tb, n1, f1, width)
+        ta, tb, n1, f1 = sp4_seeds(h1, sub(p, r0), h0, dot(h1, sub(c, r0)), width)
         for i in range(n1):
             q1 = -(ta if i == 0 else tb)
             a = rot(h0, -q1, mat(g, h5))
-            pp = add(r0, rot(h0, -q1, sub(p, r0)))
-            t5a, t5b, n5, f5 = sp4(h1, h5, h4, dot(h1, a))
-            t5a, t5b, n5 = spread(t5a, t5b, n5, f5, width)
+            pp = about(h0, r0, -q1, p)
+            t5a, t5b, n5, f5 = sp4_seeds(h1, h5, h4, dot(h1, a), width)
             for j in range(n5):
                 q5 = t5a if j == 0 else t5b
                 m6, f6 = sp1(rot(h4, -q5, h1), matT(g, rot(h0, q1, h1)), h5)
@@ -219,11 +224,10 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
                 theta, f234 = sp1(u, Ru, h1)
                 Rc = rot(h0, -q1, mat(g, rot(h5, -q6, rot(h4, -q5, sub(c, r3)))))
                 p4 = sub(pp, Rc)
-                t3a, t3b, n3, f3 = sp3(sub(r3, r2), sub(r1, r2), h2, norm(sub(p4, r1)))
-                t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                t3a, t3b, n3, f3 = sp3_seeds(sub(r3, r2), sub(r1, r2), h2, norm(sub(p4, r1)), width)
                 for k in range(n3):
                     q3 = t3a if k == 0 else t3b
-                    x = add(r2, rot(h2, q3, sub(r3, r2)))
+                    x = about(h2, r2, q3, r3)
                     q2, f2 = sp1(sub(x, r1), sub(p4, r1), h1)
                     q4 = s4 * (theta - q2 - s3 * q3)
                     _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, max(f1, f5, f6, f234, f3, f2))
@@ -264,16 +268,14 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
         p = add(mat(g, c), (g[0, 3], g[1, 3], g[2, 3]))
         n = 0
         if position == 0:  # axes 2 ∥ 3
-            ta, tb, n1, f1 = sp4(h1, sub(p, r0), h0, dot(h1, sub(c, r0)))
-            ta, tb, n1 = spread(ta, tb, n1, f1, width)
+            ta, tb, n1, f1 = sp4_seeds(h1, sub(p, r0), h0, dot(h1, sub(c, r0)), width)
             for i in range(n1):
                 q1 = -(ta if i == 0 else tb)
-                pp = add(r0, rot(h0, -q1, sub(p, r0)))
-                t3a, t3b, n3, f3 = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
-                t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                pp = about(h0, r0, -q1, p)
+                t3a, t3b, n3, f3 = sp3_seeds(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)), width)
                 for j in range(n3):
                     q3 = t3a if j == 0 else t3b
-                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    x = about(h2, r2, q3, c)
                     q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
                     n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
         elif position == 1 or position == 2:  # axes 1, 2 meet at o
@@ -281,12 +283,11 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
             d = norm(sub(p, o))
             for j in range(2):
                 if position == 1:
-                    t3a, t3b, n3, f3 = sp3(sub(c, r2), sub(o, r2), h2, d)
-                    t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+                    t3a, t3b, n3, f3 = sp3_seeds(sub(c, r2), sub(o, r2), h2, d, width)
                     if j >= n3:
                         break
                     q3 = t3a if j == 0 else t3b
-                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    x = about(h2, r2, q3, c)
                 else:
                     co = sub(c, o)
                     bq = dot(h2, co)
@@ -305,16 +306,14 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     q2 = b0 if i == 0 else b1
                     n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f2, f3), h0, h1, h2, h3, h4, h5, u)
         else:  # axes 1 ∥ 2
-            t3a, t3b, n3, f3 = sp4(h0, sub(c, r2), h2, dot(h0, sub(p, r2)))
-            t3a, t3b, n3 = spread(t3a, t3b, n3, f3, width)
+            t3a, t3b, n3, f3 = sp4_seeds(h0, sub(c, r2), h2, dot(h0, sub(p, r2)), width)
             for j in range(n3):
                 q3 = t3a if j == 0 else t3b
-                x = add(r2, rot(h2, q3, sub(c, r2)))
-                t2a, t2b, n2, f2 = sp3(sub(x, r1), sub(r0, r1), h1, norm(sub(p, r0)))
-                t2a, t2b, n2 = spread(t2a, t2b, n2, f2, width)
+                x = about(h2, r2, q3, c)
+                t2a, t2b, n2, f2 = sp3_seeds(sub(x, r1), sub(r0, r1), h1, norm(sub(p, r0)), width)
                 for i in range(n2):
                     q2 = t2a if i == 0 else t2b
-                    y = add(r1, rot(h1, q2, sub(x, r1)))
+                    y = about(h1, r1, q2, x)
                     q1, f1 = sp1(sub(y, r0), sub(p, r0), h0)
                     n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
         count[t] = n
@@ -330,10 +329,10 @@ SEARCH_SAMPLES = 1440
 def _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b):
     """Residual of branch b (0, 1) of the position part at q1: the height along axis 2 of the wrist
     centre turned by q3 (subproblem 3: its distance to axis 2's point right) minus the target's."""
-    pp = add(r0, rot(h0, -q1, sub(p, r0)))
+    pp = about(h0, r0, -q1, p)
     ta, tb, n, f = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
     q3 = ta if (b == 0 or n == 1) else tb
-    x = add(r2, rot(h2, q3, sub(c, r2)))
+    x = about(h2, r2, q3, c)
     return dot(h1, sub(x, r1)) - dot(h1, sub(pp, r1)), q3, pp
 
 
@@ -375,7 +374,7 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
                             hi = mid
                     q1 = 0.5 * (lo + hi)
                     _, q3, pp = _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b)
-                    x = add(r2, rot(h2, q3, sub(c, r2)))
+                    x = about(h2, r2, q3, c)
                     q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
                     if n + 2 <= Q.shape[1]:
                         n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, False, f2, h0, h1, h2, h3, h4, h5, u)
@@ -387,54 +386,13 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
 def damped_steps(J, e, lam, dq):
     """``dq[i] = (J_iᵀ J_i + λ_i I)⁻¹ J_iᵀ e_i`` for each row i (J (K, m, n), e (K, m), λ (K,) > 0):
     the normal equations by a Cholesky factorisation in plain loops, row by row (the same bits for a
-    row alone and in a batch). A factor that is not positive (λ too small for a singular J) gives a
-    zero step."""
-    K, m, n = J.shape
+    row alone and in a batch: :func:`~kinematics.engine.ik_polish.damped_step` on each row). A factor
+    that is not positive (λ too small for a singular J) gives a zero step."""
+    K, n = J.shape[0], J.shape[2]
     A = np.empty((n, n))
     b = np.empty(n)
     for i in range(K):
-        for r in range(n):
-            s = 0.0
-            for k in range(m):
-                s += J[i, k, r] * e[i, k]
-            b[r] = s
-            for c in range(r + 1):
-                s = 0.0
-                for k in range(m):
-                    s += J[i, k, r] * J[i, k, c]
-                A[r, c] = s
-            A[r, r] += lam[i]
-        ok = True
-        for r in range(n):  # A = L Lᵀ, L in the lower triangle of A
-            for c in range(r + 1):
-                s = A[r, c]
-                for k in range(c):
-                    s -= A[r, k] * A[c, k]
-                if r == c:
-                    if s <= 0.0:
-                        ok = False
-                        break
-                    A[r, r] = math.sqrt(s)
-                else:
-                    A[r, c] = s / A[c, c]
-            if not ok:
-                break
-        if not ok:
-            for r in range(n):
-                dq[i, r] = 0.0
-            continue
-        for r in range(n):  # L y = b
-            s = b[r]
-            for k in range(r):
-                s -= A[r, k] * b[k]
-            b[r] = s / A[r, r]
-        for r in range(n - 1, -1, -1):  # Lᵀ x = y
-            s = b[r]
-            for k in range(r + 1, n):
-                s -= A[k, r] * b[k]
-            b[r] = s / A[r, r]
-        for r in range(n):
-            dq[i, r] = b[r]
+        damped_step(J[i], e[i], lam[i], A, b, dq[i])
 
 
 @nb.njit(**_JIT)

@@ -193,6 +193,29 @@ def same_solution(x, y, rev, dup):
     return True
 
 
+@nb.njit(inline="always", **_JIT)
+def close_rows(x, y, columns, rev, tol):
+    """Every entry ``columns[c]`` of x and y within ``tol`` (``rev[c]``: compared modulo 2π, the
+    values in any range)."""
+    for c in range(columns.shape[0]):
+        d = x[columns[c]] - y[columns[c]]
+        if rev[c]:
+            d = (d + math.pi) % (2.0 * math.pi) - math.pi
+        if abs(d) > tol:
+            return False
+    return True
+
+
+@nb.njit(inline="always", **_JIT)
+def chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out):
+    """The chain's end pose ``F`` at ``x`` (:func:`chain_fk`) and its error ``e`` to ``T``
+    (:func:`pose_error`); returns the position error (metres) and the rotation error (radians)."""
+    chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
+    pose_error(F, T, e, R, out)
+    return (math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]),
+            math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5]))
+
+
 @nb.njit(**_JIT)
 def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R, out, A, b, dq, trial, sn, cs):
     """Up to ``steps`` LM steps of ``x`` (n,) towards ``T``; returns the final squared error (``F``, ``e`` at x)."""
@@ -339,10 +362,7 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
             if not finite:
                 continue
             wrap(x, rev)
-            chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
-            pose_error(F, T, e, R, out)
-            p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-            q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+            p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
             if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
                 continue
             if not (p <= tight and q <= tight):
@@ -352,19 +372,13 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
                     levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq,
                                         trial, sn, cs)
                 wrap(x, rev)
-                chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
-                pose_error(F, T, e, R, out)
-                p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-                q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+                p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
             if p + q > tight and p < 10.0 * ptol and q < 10.0 * rtol and final > 0:
                 # near a solution but not on it to machine precision (a double root converges only linearly)
                 levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq, trial,
                                     sn, cs)
                 wrap(x, rev)
-                chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
-                pose_error(F, T, e, R, out)
-                p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-                q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+                p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
             if not (p <= ptol and q <= rtol):
                 continue
             same = False
@@ -413,6 +427,7 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
     out = np.empty(3)
     sn, cs = np.empty(n), np.empty(n)
     kept = np.empty((cand.shape[1], n))
+    every = np.arange(n)
     for t in range(a, b_):
         k = 0
         for c in range(ccount[t]):
@@ -422,23 +437,12 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
                     finite = False
             if not finite:
                 continue
-            chain_fk(h, r, rev, M, cand[t, c], F, W, O, sn, cs)
-            pose_error(F, targets[t], e, R, out)
-            p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-            q = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+            p, q = chain_error(h, r, rev, M, cand[t, c], targets[t], F, W, O, sn, cs, e, R, out)
             if not (p <= ptol and q <= rtol):
                 continue
             same = False
             for i in range(k):
-                far = False
-                for j in range(n):
-                    d = cand[t, c, j] - kept[i, j]
-                    if rev[j]:
-                        d = (d + math.pi) % (2.0 * math.pi) - math.pi
-                    if abs(d) > dup:
-                        far = True
-                        break
-                if not far:
+                if close_rows(cand[t, c], kept[i], every, rev, dup):
                     same = True
                     break
             if not same:

@@ -169,28 +169,21 @@ def sp4(h, p, k, d):
     return trig_solve(A, B, d - hk * kp)
 
 
-@nb.njit(**_JIT)
-def sp2(p1, p2, k1, k2):
-    """θ1 (2,), θ2 (2,), count and flag of ``R(k1, θ1) p1 = R(k2, θ2) p2`` (k1 not parallel to k2).
-
-    The common image ``x = α k1 + β k2 + γ k1 × k2`` keeps the heights ``k1·x = k1·p1``,
-    ``k2·x = k2·p2`` and the length ``|x| = |p1|``; γ = ±√(...) gives the two solutions, then
-    :func:`sp1` rotates each of ``p1``, ``p2`` onto x. Least squares (γ = 0) when the heights are
-    out of reach; degenerate when ``k1 ∥ k2`` or a vector lies on its axis.
-    """
-    t1 = np.zeros(2)
-    t2 = np.zeros(2)
+@nb.njit(inline="always", **_JIT)
+def sp2_image(p1, p2, k1, k2):
+    """The common image of subproblem 2 (:func:`sp2`): ``(base, n, γ, count, flag)`` with the
+    solutions ``x = base ± γ n`` (``base = α k1 + β k2``, ``n = k1 × k2``, as 3-tuples); count 1
+    when γ = 0, flag least squares when the heights are out of reach, degenerate when ``k1 ∥ k2``.
+    Scalar arithmetic only (no arrays), shared by :func:`sp2` and the compiled IK kernels."""
     c12 = dot(k1, k2)
     s2 = 1.0 - c12 * c12
     if s2 <= 1e-14:
-        return t1, t2, 1, DEGENERATE
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1, DEGENERATE
     h1, h2 = dot(k1, p1), dot(k2, p2)
     alpha = (h1 - c12 * h2) / s2
     beta = (h2 - c12 * h1) / s2
-    n = cross(k1, k2)
-    base = np.empty(3)
-    for i in range(3):
-        base[i] = alpha * k1[i] + beta * k2[i]
+    n = (k1[1] * k2[2] - k1[2] * k2[1], k1[2] * k2[0] - k1[0] * k2[2], k1[0] * k2[1] - k1[1] * k2[0])
+    base = (alpha * k1[0] + beta * k2[0], alpha * k1[1] + beta * k2[1], alpha * k1[2] + beta * k2[2])
     # the common length: the mean of |p1| and |p2| (they are equal for an exact instance)
     length2 = 0.5 * (dot(p1, p1) + dot(p2, p2))
     g2 = (length2 - dot(base, base)) / s2
@@ -204,7 +197,23 @@ def sp2(p1, p2, k1, k2):
     elif g2 <= 1e-12 * scale:
         g2 = 0.0
         count = 1
-    g = math.sqrt(g2)
+    return base, n, math.sqrt(g2), count, flag
+
+
+@nb.njit(**_JIT)
+def sp2(p1, p2, k1, k2):
+    """θ1 (2,), θ2 (2,), count and flag of ``R(k1, θ1) p1 = R(k2, θ2) p2`` (k1 not parallel to k2).
+
+    The common image ``x = α k1 + β k2 + γ k1 × k2`` keeps the heights ``k1·x = k1·p1``,
+    ``k2·x = k2·p2`` and the length ``|x| = |p1|``; γ = ±√(...) gives the two solutions, then
+    :func:`sp1` rotates each of ``p1``, ``p2`` onto x. Least squares (γ = 0) when the heights are
+    out of reach; degenerate when ``k1 ∥ k2`` or a vector lies on its axis.
+    """
+    t1 = np.zeros(2)
+    t2 = np.zeros(2)
+    base, n, g, count, flag = sp2_image(p1, p2, k1, k2)
+    if flag == DEGENERATE:
+        return t1, t2, 1, DEGENERATE
     for j in range(count):
         x = np.empty(3)
         sign = 1.0 if j == 0 else -1.0

@@ -351,6 +351,49 @@ def _primitive(kind: str, g) -> tuple[float, ...]:
     return size
 
 
+def geometry_elements(root, links, tag: str, primitives: tuple[str, ...], unknown: str, warnings: list[str],
+                      max_scale: float | None = None):
+    """Read every ``<tag>`` (``collision`` or ``visual``) of a ``<link>`` of ``root`` named in
+    ``links``, in document order: yield ``(link name, element, kind, origin, size, filename, scale)``
+    -- ``kind`` the tag of its ``<geometry>`` child, ``origin`` (4, 4) ``T_link_element``, ``size``
+    a primitive's dimensions (``kind`` in ``primitives``; None for a mesh), ``filename`` and
+    ``scale`` a ``<mesh>``'s (None for a primitive). An element that cannot be read is skipped
+    and named in ``warnings`` (any other kind: "<tag> <kind> ``unknown``"; a mesh scale beyond
+    ``max_scale`` counts as unreadable)."""
+    known = set(links)
+    for link in root.findall("link"):
+        lname = link.get("name")
+        if lname not in known:
+            continue
+        for el in link.findall(tag):
+            geom = el.find("geometry")
+            shape_el = geom[0] if geom is not None and len(geom) else None
+            kind = shape_el.tag if shape_el is not None and isinstance(shape_el.tag, str) else None
+            try:
+                origin = _origin(el)
+                if kind in primitives:
+                    yield lname, el, kind, origin, _primitive(kind, shape_el), None, None
+                    continue
+                if kind != "mesh":
+                    warnings.append(f"link {lname!r}: <{tag}> " + (f"<{kind}>" if kind else "without geometry")
+                                    + " " + unknown)
+                    continue
+                filename, scale = mesh_reference(shape_el)
+                if max_scale is not None and not all(math.isfinite(s) and abs(s) <= max_scale for s in scale):
+                    raise ValueError(f"<mesh scale> {scale} is out of range")
+            except (ValueError, TypeError) as exc:
+                warnings.append(f"link {lname!r}: <{tag}> skipped ({exc})")
+                continue
+            yield lname, el, kind, origin, None, filename, scale
+
+
+def mesh_reference(shape_el) -> tuple[str, tuple[float, float, float]]:
+    """The ``filename`` (stripped) and ``scale`` (default 1, 1, 1) of a ``<mesh>`` element;
+    ValueError for a scale that is not three numbers."""
+    filename = (shape_el.get("filename") or "").strip()
+    return filename, _numbers(shape_el.get("scale"), 3, (1.0, 1.0, 1.0), "<mesh scale>")  # type: ignore[return-value]
+
+
 def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> CollisionGeometry:
     """The collision shapes of ``model`` (see the module doc); ``meshes`` says where meshes may be
     read from (None: the source vouched for the model, else nowhere -- a plain upload). Never
@@ -360,37 +403,20 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
         root = _read_xml(model.urdf.encode("utf-8"))
     except URDFError:
         return CollisionGeometry({}, ("the model's URDF text could not be re-read for its collision geometry",))
-    known = set(model.links)
     per_link: dict[str, list[Shape]] = {}
     warnings: list[str] = []
-    for link in root.findall("link"):
-        lname = link.get("name")
-        if lname not in known:
+    for lname, _, kind, origin, size, filename, scale in geometry_elements(
+            root, model.links, "collision", ("box", "cylinder", "sphere", "capsule"),
+            "is not a shape this product reads; skipped", warnings):
+        if size is not None:
+            per_link.setdefault(lname, []).append(Shape(kind, origin, size))
             continue
-        for el in link.findall("collision"):
-            geom = el.find("geometry")
-            shape_el = geom[0] if geom is not None and len(geom) else None
-            kind = shape_el.tag if shape_el is not None and isinstance(shape_el.tag, str) else None
-            try:
-                origin = _origin(el)
-                if kind in ("box", "cylinder", "sphere", "capsule"):
-                    per_link.setdefault(lname, []).append(Shape(kind, origin, _primitive(kind, shape_el)))
-                    continue
-                if kind != "mesh":
-                    warnings.append(f"link {lname!r}: <collision> " + (f"<{kind}>" if kind else "without geometry")
-                                    + " is not a shape this product reads; skipped")
-                    continue
-                filename = (shape_el.get("filename") or "").strip()
-                scale = _numbers(shape_el.get("scale"), 3, (1.0, 1.0, 1.0), "<mesh scale>")
-            except (ValueError, TypeError) as exc:
-                warnings.append(f"link {lname!r}: <collision> skipped ({exc})")
-                continue
-            try:
-                path, data, fmt = resolve_mesh(source, filename)
-            except LookupError as why:
-                warnings.append(f"link {lname!r}: mesh {filename!r} not {'read' if 'larger' in str(why) else 'opened'} ({why})")
-                continue
-            per_link.setdefault(lname, []).append(Shape("mesh", origin, scale, filename, path, data, fmt))
+        try:
+            path, data, fmt = resolve_mesh(source, filename)
+        except LookupError as why:
+            warnings.append(f"link {lname!r}: mesh {filename!r} not {'read' if 'larger' in str(why) else 'opened'} ({why})")
+            continue
+        per_link.setdefault(lname, []).append(Shape("mesh", origin, scale, filename, path, data, fmt))
     ordered = {name: tuple(per_link[name]) for name in model.links if name in per_link}
     return CollisionGeometry(ordered, tuple(warnings), source.name)
 

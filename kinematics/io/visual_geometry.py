@@ -29,7 +29,6 @@ of that name), or None (a mesh then keeps its own materials).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -38,7 +37,7 @@ import numpy as np
 
 from ..errors import UnknownMeshError, URDFError
 from ..model.robot import RobotModel
-from .collision_geometry import MAX_MESH_BYTES, _numbers, _origin, _primitive, model_meshes, resolve_mesh
+from .collision_geometry import MAX_MESH_BYTES, _numbers, geometry_elements, model_meshes, resolve_mesh
 from .urdf import _read_xml
 
 #: the media type of each mesh format served
@@ -114,50 +113,33 @@ def visual_geometry(model: RobotModel) -> VisualGeometry:
         named = _materials(root)
     except (ValueError, TypeError):
         named = {}
-    known = set(model.links)
     per_link: dict[str, list[VisualElement]] = {}
     warnings: list[str] = []
     count = 0
-    for link in root.findall("link"):
-        lname = link.get("name")
-        if lname not in known:
+    for lname, el, kind, origin, size, filename, scale in geometry_elements(
+            root, model.links, "visual", ("box", "cylinder", "sphere"), "is not drawn", warnings, max_scale=1e3):
+        mat = el.find("material")
+        try:
+            color = _color(mat)
+        except (ValueError, TypeError) as exc:
+            warnings.append(f"link {lname!r}: <visual> skipped ({exc})")
             continue
-        for el in link.findall("visual"):
-            geom = el.find("geometry")
-            shape_el = geom[0] if geom is not None and len(geom) else None
-            kind = shape_el.tag if shape_el is not None and isinstance(shape_el.tag, str) else None
-            try:
-                origin = _origin(el)
-                mat = el.find("material")
-                color = _color(mat)
-                if color is None and mat is not None:
-                    color = named.get(mat.get("name") or "")
-                if kind in ("box", "cylinder", "sphere"):
-                    per_link.setdefault(lname, []).append(VisualElement(kind, origin, _primitive(kind, shape_el),
-                                                                        color=color))
-                    continue
-                if kind != "mesh":
-                    warnings.append(f"link {lname!r}: <visual> " + (f"<{kind}>" if kind else "without geometry")
-                                    + " is not drawn")
-                    continue
-                filename = (shape_el.get("filename") or "").strip()
-                scale = _numbers(shape_el.get("scale"), 3, (1.0, 1.0, 1.0), "<mesh scale>")
-                if not all(math.isfinite(s) and abs(s) <= 1e3 for s in scale):
-                    raise ValueError(f"<mesh scale> {scale} is out of range")
-            except (ValueError, TypeError) as exc:
-                warnings.append(f"link {lname!r}: <visual> skipped ({exc})")
-                continue
-            try:
-                path, data, fmt = resolve_mesh(source, filename)
-            except LookupError as why:
-                warnings.append(f"link {lname!r}: mesh {filename!r} not opened ({why})")
-                per_link.setdefault(lname, []).append(VisualElement("mesh", origin, scale=scale, color=color,
-                                                                    source=filename))
-                continue
+        if color is None and mat is not None:
+            color = named.get(mat.get("name") or "")
+        if size is not None:
+            per_link.setdefault(lname, []).append(VisualElement(kind, origin, size, color=color))
+            continue
+        try:
+            path, data, fmt = resolve_mesh(source, filename)
+        except LookupError as why:
+            warnings.append(f"link {lname!r}: mesh {filename!r} not opened ({why})")
             per_link.setdefault(lname, []).append(VisualElement("mesh", origin, scale=scale, color=color,
-                                                                source=filename, format=fmt, mesh=count,
-                                                                path=path, data=data))
-            count += 1
+                                                                source=filename))
+            continue
+        per_link.setdefault(lname, []).append(VisualElement("mesh", origin, scale=scale, color=color,
+                                                            source=filename, format=fmt, mesh=count,
+                                                            path=path, data=data))
+        count += 1
     visuals = {name: tuple(per_link.get(name, ())) for name in model.links}
     return VisualGeometry(visuals, count, tuple(warnings), source.name)
 

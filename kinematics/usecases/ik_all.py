@@ -35,12 +35,12 @@ SOLUTIONS = ("one", "all")
 
 
 @dataclass(frozen=True, eq=False)
-class IKAllAnswer:
+class IKAllAnswer(_ik_all.SolutionArrays):
     """Every IK solution of N targets (``is_batch``: the request gave a list).
 
     ``q`` (N, K, dof) padded with NaN, ``count`` (N,), ``within_limits``, ``singular`` (N, K) bool,
     ``position_error``, ``rotation_error`` (N, K), ``complete`` (N,): see
-    :class:`~kinematics.algorithms.ik_all.AllSolutions`; ``family`` (its name), ``method``
+    :class:`~kinematics.algorithms.ik_all.SolutionArrays`; ``family`` (its name), ``method``
     (``"analytic"`` or ``"search"``); ``verification``: Pinocchio's FK of every listed solution
     (``max_position_error``, ``max_rotation_error`` against its target); ``colliding`` (N,) with
     ``avoid_collisions``: how many solutions of each target were left out as in self-collision
@@ -54,13 +54,6 @@ class IKAllAnswer:
     targets: np.ndarray
     family: str
     method: str
-    q: np.ndarray
-    count: np.ndarray
-    within_limits: np.ndarray
-    singular: np.ndarray
-    position_error: np.ndarray
-    rotation_error: np.ndarray
-    complete: np.ndarray
     locked: dict
     verification: dict[str, Any] | None = None
     colliding: np.ndarray | None = None
@@ -68,12 +61,6 @@ class IKAllAnswer:
     @property
     def joint_names(self) -> tuple[str, ...]:
         return self.model.joint_names
-
-    def solutions(self, n: int = 0) -> list[dict[str, Any]]:
-        """The solutions of target ``n`` as records ``{q, position_error, rotation_error, within_limits, singular}``."""
-        return [{"q": self.q[n, k].tolist(), "position_error": float(self.position_error[n, k]),
-                 "rotation_error": float(self.rotation_error[n, k]), "within_limits": bool(self.within_limits[n, k]),
-                 "singular": bool(self.singular[n, k])} for k in range(int(self.count[n]))]
 
 
 def parse_locked(items: Iterable[str] | None) -> dict[str, float]:
@@ -160,9 +147,10 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
                 p, r = pose_errors(frames.poses(sol.q[n, k])[link][None], T_root[n:n + 1])
                 worst_p, worst_r = max(worst_p, float(p[0])), max(worst_r, float(r[0]))
         verification = {"reference": REFERENCE_NAME, "max_position_error": worst_p, "max_rotation_error": worst_r}
-    return IKAllAnswer(model, link, mode, is_batch, T, sol.family.name, sol.method, sol.q, sol.count, sol.within_limits,
-                       sol.singular, sol.position_error, sol.rotation_error, sol.complete,
-                       dict(sol.family.chain.locked), verification, colliding)
+    return IKAllAnswer(sol.q, sol.count, sol.within_limits, sol.singular, sol.position_error, sol.rotation_error,
+                       sol.complete, model=model, link=link, mode=mode, is_batch=is_batch, targets=T,
+                       family=sol.family.name, method=sol.method, locked=dict(sol.family.chain.locked),
+                       verification=verification, colliding=colliding)
 
 
 def _off_chain_at_middle(model: RobotModel, link: str, locked, T_tool, sol):

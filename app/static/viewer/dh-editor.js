@@ -132,19 +132,24 @@ export function fillDhEditor(table) {
   }
 }
 
+// The editor's table (symbols allowed), or null after showing why it cannot be read.
+function readDhTableOrShow() {
+  try {
+    return readDhTable({ symbols: true });
+  } catch (err) {
+    showError(err);
+    return null;
+  }
+}
+
 $("dh-add").addEventListener("click", () => addDhRow());
 $("dh-edit-current").addEventListener("click", () => { if (model && model.dh_table) fillDhEditor(model.dh_table); });
 $("dh-build").addEventListener("click", async () => {
   const result = $("dh-result");
   result.className = "";
   result.textContent = "";
-  let table;
-  try {
-    table = readDhTable({ symbols: true });
-  } catch (err) {
-    showError(err);
-    return;
-  }
+  const table = readDhTableOrShow();
+  if (!table) return;
   const symbolic = dhSymbolicCells(table);
   if (symbolic.length) {   // a table with symbols has a closed form, not a model
     result.textContent = `The table has symbols (${[...new Set(symbolic)].join(", ")}): its closed form is shown ` +
@@ -170,12 +175,7 @@ $("dh-build").addEventListener("click", async () => {
 });
 $("dh-download").addEventListener("click", () => downloadUrdf($("dh-download").dataset.id));
 $("dh-closed").addEventListener("click", async () => {
-  let table;
-  try {
-    table = readDhTable({ symbols: true });
-  } catch (err) {
-    showError(err);
-    return;
-  }
+  const table = readDhTableOrShow();
+  if (!table) return;
   await showDhClosedForm(table);
 });
