@@ -10,8 +10,8 @@ the held-out RMS against the measurements and against the noise-free truth, the 
 and the wall time of one calibration (median of 5). Then: 3 planted 5 mm outliers with the linear
 and the huber loss, and D-optimal against random poses (15 configurations, held-out error vs truth).
 
-FIGAROH is on PyPI (``figaroh`` 1.0.2) but brings 27 packages (ndcurves, cvxopt, PICOS, ipython, ...)
-and is driven by a YAML configuration and a robot subclass per model; it is not compared here.
+FIGAROH (``figaroh`` 1.0.2, 27 further packages) runs in a venv of its own on the same UR5 data:
+``bench/figaroh_side_by_side.py`` writes ``bench/RESULTS_FIGAROH.md``.
 """
 
 from __future__ import annotations
