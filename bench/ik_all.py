@@ -27,7 +27,7 @@ from kinematics.algorithms.ik_all import all_solutions
 from kinematics.algorithms.ik_families import detect, reduce_chain
 from kinematics.engine.parallel import threads
 
-from .common import Report, table
+from .common import Report, best_of, table
 
 #: (catalogue id, link, locked joints)
 ROBOTS = [("ur5", "tool0", None), ("ur10", "tool0", None), ("puma560_standard", "tool", None),
@@ -75,16 +75,6 @@ def _worst(poe, link, sol, T) -> float:
     return max(float(p.max(initial=0.0)), float(r.max(initial=0.0)))
 
 
-def _best(fn, rounds: int = 3, clock=time.perf_counter) -> float:
-    """The best seconds of ``rounds`` calls by ``clock`` (wall clock by default; the machine is shared)."""
-    best = float("inf")
-    for _ in range(rounds):
-        t0 = clock()
-        fn()
-        best = min(best, clock() - t0)
-    return best
-
-
 def calibrated(model, seed: int = 3, distance: float = 1e-3, angle: float = 1e-3):
     """``model`` with every moving joint's origin moved by ``distance`` m and turned by ``angle`` rad
     (a random direction and axis each), as a per-robot calibration moves them."""
@@ -115,9 +105,9 @@ def _calibrated_row(n: int) -> list:
     t = {}
     for k in (1, 2):
         with threads(k):
-            t[k] = _best(lambda: all_solutions(model, "tool0", T, limits="ignore"), rounds=2) / n
+            t[k] = best_of(lambda: all_solutions(model, "tool0", T, limits="ignore"), rounds=2) / n
     with threads(1):
-        cpu = _best(lambda: all_solutions(model, "tool0", T, limits="ignore"), 2, time.process_time) / n
+        cpu = best_of(lambda: all_solutions(model, "tool0", T, limits="ignore"), 2, time.process_time) / n
     sol = all_solutions(model, "tool0", T, limits="ignore")
     missed = sum(not _contains(sol.q[i, :sol.count[i]], Q[i]) for i in range(n))
     worst = _worst(poe, "tool0", sol, T)
@@ -149,9 +139,9 @@ def run(report: Report, quick: bool = False) -> None:
         t_ours = {}
         for k in (1, 2):
             with threads(k):
-                t_ours[k] = _best(lambda: all_solutions(model, link, T, locked=locked, limits="ignore")) / n
+                t_ours[k] = best_of(lambda: all_solutions(model, link, T, locked=locked, limits="ignore")) / n
         with threads(1):  # the CPU time of the process: what a loaded machine's wall clock hides
-            cpu_ours = _best(lambda: all_solutions(model, link, T, locked=locked, limits="ignore"), 5,
+            cpu_ours = best_of(lambda: all_solutions(model, link, T, locked=locked, limits="ignore"), 5,
                              time.process_time) / n
         sol = all_solutions(model, link, T, locked=locked, limits="ignore")
         ours = [sol.q[i, :sol.count[i]][:, cols] for i in range(n)]
@@ -163,8 +153,8 @@ def run(report: Report, quick: bool = False) -> None:
         robot.IK_batched(Te[:2], 1)
         times = {}
         for workers in (1, 2):
-            times[workers] = _best(lambda: robot.IK_batched(Te, workers)) / n
-        cpu_eaik = _best(lambda: robot.IK_batched(Te, 1), 5, time.process_time) / n
+            times[workers] = best_of(lambda: robot.IK_batched(Te, workers)) / n
+        cpu_eaik = best_of(lambda: robot.IK_batched(Te, 1), 5, time.process_time) / n
         eaik_out = robot.IK_batched(Te, 2)
         eaik = [_exact(poe, link, Q[i], cols, np.array(s.Q).reshape(-1, 6), T[i]) for i, s in enumerate(eaik_out)]
         # IK-Geo
@@ -176,7 +166,7 @@ def run(report: Report, quick: bool = False) -> None:
         def solve_geo():
             return [geo.get_ik(Tg[i, :3, :3].T.tolist(), Tg[i, :3, 3].tolist()) for i in range(n)]
 
-        t_geo = _best(solve_geo) / n
+        t_geo = best_of(solve_geo) / n
         geo_out = solve_geo()
         geo_sols = []
         for i, out in enumerate(geo_out):

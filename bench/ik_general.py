@@ -23,7 +23,7 @@ from kinematics.algorithms.ik_all import all_solutions
 from kinematics.algorithms.ik_families import detect, reduce_chain
 from kinematics.io.dh_table import model_from_table, table_from_dict
 
-from .common import Report, table
+from .common import Report, best_of, table
 
 SAME = 1e-7
 
@@ -38,15 +38,6 @@ def _random_6r(seed: int):
 
 def _contains(qs, q) -> bool:
     return len(qs) > 0 and bool(np.abs(np.mod(qs - q + np.pi, 2 * np.pi) - np.pi).max(axis=1).min() < SAME)
-
-
-def _best(fn, rounds: int = 3) -> float:
-    best = float("inf")
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def run(report: Report, quick: bool = False) -> None:
@@ -64,7 +55,7 @@ def run(report: Report, quick: bool = False) -> None:
         Q = model.sample_configurations(n, np.random.default_rng(2026), continuous_range=np.pi)
         T = compile_model(model).fk(Q, [link])[:, 0]
         all_solutions(model, link, T[:2], limits="ignore")
-        t_ours = _best(lambda: all_solutions(model, link, T, limits="ignore")) / n
+        t_ours = best_of(lambda: all_solutions(model, link, T, limits="ignore")) / n
         sol = all_solutions(model, link, T, limits="ignore")
         ours = [sol.q[i, :sol.count[i]] for i in range(n)]
         worst = max(float(np.nanmax(sol.position_error)), float(np.nanmax(sol.rotation_error)))
@@ -83,7 +74,7 @@ def run(report: Report, quick: bool = False) -> None:
             def solve_geo():
                 return [geo.get_ik(Rg[i].T.tolist(), T[i, :3, 3].tolist()) for i in range(m)]
 
-            t_geo = _best(solve_geo, 1) / m
+            t_geo = best_of(solve_geo, 1) / m
             geo_sets = []
             for i, out in enumerate(solve_geo()):
                 s = np.array([q for q, _ in out]).reshape(-1, 6)

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from .common import Report, configurations, measure, table, us
+from .common import Report, best_of, configurations, measure, table, us
 
 THREAD_TARGET = 1.7
 SINGLE_TARGET = 2.0
@@ -34,15 +34,6 @@ MEMORY_LIMIT = 1 << 30
 LOG_ROWS = 10_000_000
 ROW_GROUP = 250_000
 CLI_CHUNK = 100_000
-
-
-def _wall(fn, rounds: int = 3) -> float:
-    best = float("inf")
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def threads_table(report: Report, quick: bool) -> list[dict]:
@@ -66,7 +57,7 @@ def threads_table(report: Report, quick: bool) -> list[dict]:
             for k in (1, 2):
                 with threads(k):
                     answers[k] = np.array(fn(), copy=True)
-                    t[k] = _wall(fn, rounds=2 if "IK" in what else 3)
+                    t[k] = best_of(fn, rounds=2 if "IK" in what else 3)
             same = bool(np.array_equal(answers[1], answers[2]))
             ratio = t[1] / t[2]
             out.append({"robot": rid, "what": what, "speedup": ratio, "identical": same})
