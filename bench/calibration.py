@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from kinematics.algorithms.calibration import calibrate, select_poses
-from kinematics.algorithms.calibration.synthetic import plant
+from kinematics.algorithms.calibration.synthetic import experiment, plant
 from kinematics.io.catalogue import default_catalogue
 
 from .common import Report, table
@@ -47,9 +47,7 @@ def run(report: Report, quick: bool = False) -> None:
         link = link if link in model.links else model.links[-1]
         for measure in ("position", "pose"):
             rng = np.random.default_rng(3)
-            truth = plant(model, link, measure, rng)
-            Q = model.sample_configurations(100, rng)
-            data = truth.measure(Q, SIGMA, rng)
+            truth, Q, data = experiment(model, link, measure, 100, rng, SIGMA)
             kw = {"positions": data} if measure == "position" else {"poses": data}
             times = []
             for _ in range(repeats):
@@ -81,10 +79,8 @@ def run(report: Report, quick: bool = False) -> None:
     # outliers
     model = cat.get("ur5")
     rng = np.random.default_rng(5)
-    truth = plant(model, "tool0", "position", rng)
-    Q = model.sample_configurations(100, rng)
     bad = [3, 17, 42]
-    data = truth.measure(Q, SIGMA, rng, outliers=bad)
+    truth, Q, data = experiment(model, "tool0", "position", 100, rng, SIGMA, outliers=bad)
     rows = []
     for loss in ("linear", "huber"):
         cal = calibrate(model, "tool0", Q[:60], positions=data[:60], loss=loss)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinematics.algorithms.calibration.synthetic import plant
+from kinematics.algorithms.calibration.synthetic import experiment
 
 SIGMA = 20e-6
 
@@ -16,9 +16,7 @@ def ur5_data():
 
     model = default_catalogue().get("ur5")
     rng = np.random.default_rng(11)
-    truth = plant(model, "tool0", "position", rng)
-    Q = model.sample_configurations(60, rng)
-    return model, truth, Q, truth.measure(Q, SIGMA, rng)
+    return (model, *experiment(model, "tool0", "position", 60, rng, SIGMA))
 
 
 def body(Q, P, **extra):
@@ -70,9 +68,7 @@ def test_calibrate_poses(api_client):
 
     model = default_catalogue().get("ur5")
     rng = np.random.default_rng(12)
-    truth = plant(model, "tool0", "pose", rng)
-    Q = model.sample_configurations(40, rng)
-    T = truth.measure(Q, SIGMA, rng)
+    truth, Q, T = experiment(model, "tool0", "pose", 40, rng, SIGMA)
     meas = [{"q": q.tolist(), "pose": t.tolist()} for q, t in zip(Q, T)]
     r = api_client.post("/models/ur5/calibrate", json={"link": "tool0", "measurements": meas})
     assert r.status_code == 201, r.text

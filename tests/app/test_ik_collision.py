@@ -131,13 +131,11 @@ def test_bad_flags_are_422(client):
 def test_a_model_calibrated_by_the_service_gets_every_solution(client, catalogue):
     """POST /models/ur5/calibrate, then every IK solution of the new model: each generating
     configuration listed, each solution exact for Pinocchio."""
-    from kinematics.algorithms.calibration.synthetic import plant
+    from kinematics.algorithms.calibration.synthetic import experiment
 
     model = catalogue.get("ur5")
     rng = np.random.default_rng(11)
-    truth = plant(model, "tool0", "position", rng)
-    Q = model.sample_configurations(60, rng)
-    P = truth.measure(Q, 20e-6, rng)
+    truth, Q, P = experiment(model, "tool0", "position", 60, rng)
     r = client.post("/models/ur5/calibrate", json={
         "link": "tool0", "measurements": [{"q": q.tolist(), "position": p.tolist()} for q, p in zip(Q, P)]})
     assert r.status_code == 201, r.text

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from kinematics import default_catalogue
-from kinematics.algorithms.calibration.synthetic import plant
+from kinematics.algorithms.calibration.synthetic import experiment
 from kinematics.cli import main
 from kinematics.engine.poe import compile_model
 from kinematics.io.urdf import load_urdf
@@ -18,9 +18,7 @@ from kinematics.io.urdf import load_urdf
 def measured(tmp_path_factory):
     model = default_catalogue().get("ur5")
     rng = np.random.default_rng(21)
-    truth = plant(model, "tool0", "position", rng)
-    Q = model.sample_configurations(60, rng)
-    P = truth.measure(Q, 20e-6, rng, outliers=[7])
+    truth, Q, P = experiment(model, "tool0", "position", 60, rng, outliers=[7])
     path = tmp_path_factory.mktemp("cal") / "measurements.csv"
     rows = [",".join(model.joint_names) + ",x,y,z"] + [",".join(repr(float(v)) for v in [*q, *p]) for q, p in zip(Q, P)]
     path.write_text("\n".join(rows) + "\n")

@@ -73,3 +73,14 @@ def plant(model: RobotModel, link: str, measure: str = "position", rng: np.rando
     base = em.base_pose(x)
     tool = em.tool_pose(x)
     return Truth(em, x, base, tool)
+
+
+def experiment(model: RobotModel, link: str, measure: str, n: int, rng: np.random.Generator,
+               sigma: float = 20e-6, outliers=()) -> tuple[Truth, np.ndarray, np.ndarray]:
+    """A planted robot, ``n`` random configurations within the limits and what the device measured of
+    them: ``(truth, Q (n, dof), data)``, drawn from ``rng`` in that order (:func:`plant`,
+    ``sample_configurations``, :meth:`Truth.measure`)."""
+    truth = plant(model, link, measure, rng)
+    Q = model.sample_configurations(n, rng)
+    return truth, Q, truth.measure(Q, sigma, rng, outliers=outliers)
+

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from kinematics import Query, default_catalogue, usecases
-from kinematics.algorithms.calibration.synthetic import plant
+from kinematics.algorithms.calibration.synthetic import experiment
 from kinematics.errors import BudgetError, CalibrationError, KinematicsError
 from kinematics.usecases import Budget
 
@@ -15,9 +15,7 @@ from kinematics.usecases import Budget
 def measured():
     model = default_catalogue().get("ur5")
     rng = np.random.default_rng(31)
-    truth = plant(model, "tool0", "pose", rng)
-    Q = model.sample_configurations(40, rng)
-    return model, truth, Q, truth.measure(Q, 20e-6, rng)
+    return (model, *experiment(model, "tool0", "pose", 40, rng))
 
 
 def test_json_maps_csv_and_verification_agree(measured):

@@ -158,13 +158,11 @@ def test_a_model_without_collision_geometry_is_refused_by_name(catalogue):
 @pytest.fixture(scope="module")
 def calibrated_ur5():
     from kinematics import default_catalogue
-    from kinematics.algorithms.calibration.synthetic import plant
+    from kinematics.algorithms.calibration.synthetic import experiment
 
     model = default_catalogue().get("ur5")
     rng = np.random.default_rng(11)
-    truth = plant(model, "tool0", "position", rng)
-    Q = model.sample_configurations(60, rng)
-    P = truth.measure(Q, 20e-6, rng)
+    truth, Q, P = experiment(model, "tool0", "position", 60, rng)
     cal = usecases.calibrate(usecases.Query(model, link="tool0"), [{"q": q.tolist(), "position": p.tolist()} for q, p in zip(Q, P)])
     return model, cal
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from kinematics.algorithms.calibration import calibrate, select_poses
-from kinematics.algorithms.calibration.synthetic import plant
+from kinematics.algorithms.calibration.synthetic import experiment, plant
 from kinematics.engine.poe import compile_model
 from kinematics.errors import CalibrationError, UnknownLinkError
 from kinematics.io.urdf import parse_urdf
@@ -27,9 +27,7 @@ def scenario(catalogue, mid, link, measure, seed=3, outliers=()):
     model = catalogue.get(mid)
     link = link or model.links[-1]
     rng = np.random.default_rng(seed)
-    truth = plant(model, link, measure, rng)
-    Q = model.sample_configurations(100, rng)
-    data = truth.measure(Q, SIGMA, rng, outliers=outliers)
+    truth, Q, data = experiment(model, link, measure, 100, rng, SIGMA, outliers=outliers)
     return model, link, truth, Q, data
 
 
@@ -184,9 +182,7 @@ def test_a_tree_with_mimic_prismatic_continuous_and_oblique_axes(link, count):
     model = load_urdf(FIXTURES / "tree_mimic.urdf")
     for measure, want in zip(("position", "pose"), count):
         rng = np.random.default_rng(0)
-        truth = plant(model, link, measure, rng)
-        Q = model.sample_configurations(100, rng)
-        data = truth.measure(Q, SIGMA, rng)
+        truth, Q, data = experiment(model, link, measure, 100, rng, SIGMA)
         kw = {"positions": data} if measure == "position" else {"poses": data}
         cal = calibrate(model, link, Q, holdout=0.4, **kw)
         assert cal.identifiable == want
