@@ -397,11 +397,8 @@ def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
         Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
                                                       position_only, False))
         p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
-    ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
-    starts = (np.arange(N + 1) * len(seeds)).astype(np.intp)
-    keep = np.zeros(len(Q), bool)
-    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
-    return Q[keep], owner[keep], (p[keep], r[keep])
+    return _accepted(chain, Q, owner, np.full(N, len(seeds)), ok, p, r, position_only, position_tolerance,
+                     rotation_tolerance)
 
 
 def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
@@ -532,6 +529,12 @@ def _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand, coun
                                        Tt[todo])
         todo = todo[np.isfinite(p[todo]) & (p[todo] + np.where(position_only, 0.0, r[todo]) > TIGHT)
                     & (p[todo] < 10 * position_tolerance) & (position_only | (r[todo] < 10 * rotation_tolerance))]
+    return _accepted(chain, Q, owner, counts, ok, p, r, position_only, position_tolerance, rotation_tolerance)
+
+
+def _accepted(chain, Q, owner, counts, ok, p, r, position_only, position_tolerance, rotation_tolerance):
+    """The rows of ``Q`` (``counts`` per target, in target order) that are finite (``ok``) and within the
+    tolerances, each solution of a target once: rows, owner and their (position, rotation) errors."""
     ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
     keep = np.zeros(len(Q), bool)
