@@ -11,7 +11,6 @@ configurations where measuring determines the parameters best.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -21,21 +20,20 @@ import numpy as np
 from .. import usecases
 from ..usecases import Query
 from ..spatial.transforms import pose_components
-from . import EXIT_OK, EXIT_USAGE
-from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
+from . import EXIT_OK, EXIT_USAGE, add_command
+from .pipeline import _fail, atomic_file, model_or_exit_code, parse_point
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "calibrate", help="calibrate a model from measured marker positions or tool poses (CSV) -> URDF",
+    p = add_command(
+        sub, "calibrate", run_calibrate,
+        help="calibrate a model from measured marker positions or tool poses (CSV) -> URDF",
         description="Fit every joint origin and zero on the path to --link, the measuring device's frame and the "
         "marker point (or tool frame) to measurements, and write the calibrated URDF.",
         epilog="measurements CSV: a header naming every joint, then x,y,z (positions) or x,y,z,qw,qx,qy,qz (poses)\n\n"
         "examples:\n"
         "  kinematics calibrate --model ur5 --link tool0 measurements.csv -o ur5_calibrated.urdf\n"
-        "  kinematics calibrate --model ur5 --link tool0 m.csv --loss huber --holdout 0.3 --plot residuals.png\n",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    _model_options(p)
+        "  kinematics calibrate --model ur5 --link tool0 m.csv --loss huber --holdout 0.3 --plot residuals.png\n")
     p.add_argument("measurements", metavar="CSV", help="the measurements ('-' reads stdin)")
     p.add_argument("--link", required=True, metavar="NAME", help="the link the marker or tool is fixed to")
     p.add_argument("--point", metavar="X,Y,Z", help="a guess of the marker point on the link (metres)")
@@ -52,20 +50,17 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", metavar="URDF", help="write the calibrated URDF")
     p.add_argument("--json", metavar="FILE", help="write the result (base, point/tool, parameters, residuals) as JSON")
     p.add_argument("--plot", metavar="PNG", help="draw the residual of every measurement before and after")
-    p.set_defaults(func=run_calibrate)
 
-    q = sub.add_parser(
-        "calibration-poses", help="choose the configurations to measure for a calibration (D-optimal)",
+    q = add_command(
+        sub, "calibration-poses", run_poses, help="choose the configurations to measure for a calibration (D-optimal)",
         description="Choose N configurations within the limits where measuring --link determines the calibration "
         "parameters best (D-optimality of the identification Jacobian, greedy then exchange).")
-    _model_options(q)
     q.add_argument("--link", required=True, metavar="NAME")
     q.add_argument("-n", type=int, default=30, metavar="N", help="how many configurations (default 30)")
     q.add_argument("--measure", choices=("position", "pose"), default="position")
     q.add_argument("--point", metavar="X,Y,Z", help="where the marker will be on the link (default 0.05,0.05,0.05)")
     q.add_argument("--seed", type=int, default=0)
     q.add_argument("-o", "--output", metavar="CSV", help="write the configurations as CSV (joint columns)")
-    q.set_defaults(func=run_poses)
 
 
 def _query(args, command: str) -> Query | int:

@@ -8,12 +8,13 @@ import time
 from ..io.catalogue import default_catalogue
 from ..io.floating import with_floating_base
 from ..tolerances import AGREEMENT_TOLERANCE
+from . import add_command
 from .progress import progress
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "check",
+    p = add_command(
+        sub, "check", run, model=False,
         help="compare FK, Jacobians and velocities with Pinocchio on the catalogue",
         description="For every catalogue model (or those named), compare FK of every link, the three "
         "Jacobians of every leaf link and the velocity of every link (three references, random joint "
@@ -25,7 +26,6 @@ def register(sub) -> None:
     p.add_argument("--tolerance", type=float, default=AGREEMENT_TOLERANCE, help="largest allowed deviation (default 1e-9)")
     p.add_argument("--floating-base", action="store_true",
                    help="check each model on a free-flyer root joint (against Pinocchio's JointModelFreeFlyer root)")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -11,7 +11,6 @@ collision, ``a|b`` separated by ``;``), with ``--distance`` also ``min_distance,
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import os
@@ -24,40 +23,36 @@ from ..errors import KinematicsError
 from ..io.trajectory import open_joint_rows
 from ..usecases import collision as _collision
 from ..usecases import collision_matrix as _matrix
-from . import EXIT_OK, EXIT_USAGE
-from .pipeline import _fail, _model_options, model_or_exit_code
+from . import EXIT_OK, EXIT_USAGE, add_command
+from .pipeline import _fail, model_or_exit_code
 from .progress import progress
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "collision", help="self-collision of configurations (a flag and the colliding pairs per row)",
+    p = add_command(
+        sub, "collision", run_collision,
+        help="self-collision of configurations (a flag and the colliding pairs per row)",
         description="Check every configuration of INPUT for self-collision on the pairs the model's "
         "allowed-collision matrix leaves enabled (geometry: the URDF's <collision> elements; meshes of "
         "catalogue models from the installed packages, never from a path an uploaded file names).",
         epilog="examples:\n  kinematics collision --model panda configurations.csv\n"
-               "  kinematics collision --model ur5 q.npy --distance --margin 0.01 -o report.csv\n",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    _model_options(p)
+               "  kinematics collision --model ur5 q.npy --distance --margin 0.01 -o report.csv\n")
     p.add_argument("input", metavar="INPUT", help="joint values: .csv, .npy or .jsonl ('-': CSV on stdin)")
     p.add_argument("-o", "--output", default="-", metavar="CSV", help="the report (default: stdout)")
     p.add_argument("--distance", action="store_true", help="also the minimum distance and the closest pair")
     p.add_argument("--margin", type=float, default=0.0, metavar="M", help="closer than M metres counts as colliding")
     p.add_argument("--per-pair", action="store_true", help="a 0/1 column per checked pair instead of 'pairs'")
     _matrix_options(p)
-    p.set_defaults(func=run_collision)
 
-    m = sub.add_parser(
-        "collision-matrix", help="the allowed-collision matrix (SRDF disable_collisions, or JSON)",
+    m = add_command(
+        sub, "collision-matrix", run_collision_matrix,
+        help="the allowed-collision matrix (SRDF disable_collisions, or JSON)",
         description="Compute the pairs never checked for self-collision, each with its reason, as MoveIt's "
         "Setup Assistant does: adjacent (parent and child links of a joint), always (in collision in every "
         "sampled configuration), never (in none of N random configurations).",
-        epilog="example:\n  kinematics collision-matrix --model panda -o panda.srdf\n",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    _model_options(m)
+        epilog="example:\n  kinematics collision-matrix --model panda -o panda.srdf\n")
     m.add_argument("-o", "--output", default="-", metavar="FILE", help=".srdf (default) or .json; '-': SRDF on stdout")
     _matrix_options(m)
-    m.set_defaults(func=run_collision_matrix)
 
 
 def _matrix_options(p) -> None:

@@ -18,25 +18,24 @@ from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
 from ..io.dh_table import DHTable, load_table, table_to_dict, table_to_urdf
 from ..io.urdf import load_urdf
-from . import EXIT_OK, EXIT_USAGE
+from . import EXIT_OK, EXIT_USAGE, add_command
 
 #: configurations of ``urdf2dh --check``
 CHECK_SAMPLES = 1000
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "dh2urdf",
+    p = add_command(
+        sub, "dh2urdf", run_dh2urdf, model=False,
         help="build a URDF from a DH table (YAML or JSON)",
         description="Read a Denavit-Hartenberg table (.yaml/.yml/.json, the fields of POST /models/dh) "
         "and write the URDF whose link frame_i is DH frame i and whose leaf link 'tool' is the tool frame.",
     )
     p.add_argument("table", metavar="TABLE", help="table file (.yaml, .yml or .json)")
     p.add_argument("-o", "--output", metavar="FILE", help="write the URDF here (default: standard output)")
-    p.set_defaults(func=run_dh2urdf)
 
-    p = sub.add_parser(
-        "urdf2dh",
+    p = add_command(
+        sub, "urdf2dh", run_urdf2dh, model=False,
         help="the DH table (with base and tool) of a URDF chain",
         description="Print the standard or modified DH table of the chain from the root link to --tip "
         "(default: the only leaf link), with the base and tool transforms that make its FK equal "
@@ -56,7 +55,6 @@ def register(sub) -> None:
         help=f"also report (on stderr) the largest deviation of the table's FK from the URDF's at N random "
         f"configurations within the limits (default {CHECK_SAMPLES})",
     )
-    p.set_defaults(func=run_urdf2dh)
 
 
 def _error(command: str, message: str) -> int:

@@ -9,7 +9,6 @@ row per solution with its target's index (:mod:`kinematics.algorithms.ik_all`).
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -30,9 +29,9 @@ from ..algorithms.ik import (
 from ..errors import JointValueError
 from .collision import add_filter_options, filter_options
 from ..tolerances import AGREEMENT_TOLERANCE
-from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE
+from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
 from .pipeline import (
-    _endpoints, _fail, _io_options, _model_options, _quietly, _timing, chunk_times, model_or_exit_code, open_input,
+    _endpoints, _fail, _io_options, _quietly, _timing, chunk_times, model_or_exit_code, open_input,
     open_output,
 )
 from .progress import progress
@@ -66,8 +65,8 @@ EXIT_CODES = """exit codes:
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "ik",
+    p = add_command(
+        sub, "ik", run_ik,
         help="inverse kinematics of every target pose of a file",
         description="Joint values putting --link at each target pose of INPUT (damped least squares "
         "within the joint limits, with random restarts), streamed in chunks. Prints one summary line "
@@ -78,9 +77,7 @@ def register(sub) -> None:
         "  kinematics ik --model ur5 --link tool0 T.npy -o q.npy --restarts 100 --verify\n"
         "  kinematics ik --dh models/planar_2r.yaml --link tool --mode position xy.csv\n\n"
         + EXIT_CODES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _model_options(p)
     p.add_argument("--link", metavar="NAME", help="the link placed at the targets (default: the model's first leaf link)")
     p.add_argument("--mode", choices=IK_MODES, default="pose",
                    help="pose: position and orientation; position: the position only (default pose)")
@@ -114,7 +111,6 @@ def register(sub) -> None:
     add_filter_options(p, "--avoid-collisions", "answers free of self-collision only: with --all the colliding "
                        "solutions are left out; else the search goes on until a free answer is found (success only "
                        "when free)")
-    p.set_defaults(func=run_ik)
 
 
 def run_ik(args) -> int:

@@ -15,21 +15,19 @@ import numpy as np
 
 from .. import api
 from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
-from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE, add_command
 from .collision import add_filter_options, filter_options
 from .ik import parse_locked
-from .pipeline import ModelLoadError, _fail, _model_options, _quietly, load_model, open_input
+from .pipeline import ModelLoadError, _fail, _quietly, load_model, open_input
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "ik-path", help="a Cartesian path through waypoints that never jumps branches",
+    p = add_command(
+        sub, "ik-path", run_ik_path, help="a Cartesian path through waypoints that never jumps branches",
         description="Joint values moving --link along straight lines and rotation geodesics through the "
         "waypoints of INPUT, each target the solution nearest the previous row; stops where no solution "
         "is within --max-joint-step and says why.",
-        epilog="example:\n  kinematics ik-path --model ur5 --link tool0 waypoints.csv --seed=0.3,-1,1.2,-0.5,0.8,0.2",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    _model_options(p)
+        epilog="example:\n  kinematics ik-path --model ur5 --link tool0 waypoints.csv --seed=0.3,-1,1.2,-0.5,0.8,0.2")
     p.add_argument("input", metavar="INPUT", help="waypoints: .csv, .npy or .jsonl (as `kinematics ik` targets)")
     p.add_argument("-o", "--output", default="-", metavar="OUTPUT", help="CSV of the rows (default stdout)")
     p.add_argument("--input-format", choices=("csv", "npy", "jsonl"), help="format of INPUT")
@@ -42,7 +40,6 @@ def register(sub) -> None:
     p.add_argument("--max-joint-step", type=float, default=DEFAULT_MAX_JOINT_STEP, metavar="RAD")
     p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[])
     add_filter_options(p, "--avoid-collisions", "stop at the first row in self-collision (reason collision)")
-    p.set_defaults(func=run_ik_path)
 
 
 def run_ik_path(args) -> int:

@@ -26,7 +26,7 @@ from ..io.trajectory import CHUNK_ROWS, FORMATS, TrajectoryFileError, format_of,
 from ..model.robot import RobotModel
 from ..spatial.reference import REFERENCES, Reference
 from ..tolerances import AGREEMENT_TOLERANCE
-from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE
+from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE, add_command
 from .progress import progress
 #: input formats beyond the trajectory files: Parquet (file, directory or glob) and ROS bags
 IN_FORMATS = FORMATS + ("parquet", "rosbag")
@@ -67,22 +67,6 @@ class ModelLoadError(Exception):
 
 
 # ============================================================================ registration
-def _model_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("model (one of)")
-    src = g.add_mutually_exclusive_group(required=True)
-    src.add_argument("--model", metavar="ID", help="a catalogue model (see `kinematics models`)")
-    src.add_argument("--urdf", metavar="FILE", help="a URDF file (meshes it names are never opened)")
-    src.add_argument("--dh", metavar="TABLE", help="a DH table (.yaml/.yml/.json), converted to URDF")
-    src.add_argument("--xacro", metavar="FILE", help="a xacro file, expanded in a sandboxed process (it reads only "
-                     "its directory and --package-path)")
-    src.add_argument("--mjcf", metavar="FILE", help="a MuJoCo MJCF file (hinge, slide and fixed bodies; meshes "
-                     "are never opened)")
-    g.add_argument("--arg", action="append", default=[], metavar="NAME=VALUE",
-                   help="a xacro argument (repeatable; with --xacro)")
-    g.add_argument("--package-path", action="append", default=[], metavar="DIR",
-                   help="a directory of ROS packages that $(find pkg) resolves (repeatable; with --xacro)")
-
-
 def _io_options(p: argparse.ArgumentParser, what: str = "joint values", verify: bool = True) -> None:
     """INPUT (``what`` it holds), -o OUTPUT, formats, --chunk and (``verify``) --verify K / --seed."""
     p.add_argument("input", metavar="INPUT", help=f"{what}: .csv, .npy or .jsonl ('-': CSV on stdin)")
@@ -114,8 +98,8 @@ def _log_options(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub) -> None:
-    fk = sub.add_parser(
-        "fk",
+    fk = add_command(
+        sub, "fk", run_fk,
         help="forward kinematics of every configuration of a trajectory file",
         description="Pose of links (T_world_link) for every configuration of INPUT, streamed in chunks. "
         "CSV output has, per link, the position <link>.x,<link>.y,<link>.z (metres, world frame) and the "
@@ -125,17 +109,14 @@ def register(sub) -> None:
         "  kinematics fk --model ur5 trajectory.csv -o poses.csv\n"
         "  kinematics fk --model ur5 --links all q.npy -o T.npy --verify=1000\n"
         "  kinematics fk --urdf robot.urdf --links tool0,base_link q.jsonl > poses.csv\n\n" + EXIT_CODES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _model_options(fk)
     fk.add_argument("--links", action="append", metavar="all|NAME[,NAME...]",
                     help="links to output: 'all', or names (comma-separated or repeated); default: the leaf links")
     _io_options(fk)
     _log_options(fk)
-    fk.set_defaults(func=run_fk)
 
-    jac = sub.add_parser(
-        "jacobian",
+    jac = add_command(
+        sub, "jacobian", run_jacobian,
         help="Jacobian of a link for every configuration of a trajectory file",
         description="Jacobian (6 x dof, linear rows first, columns in joint_names order) of one link for every "
         "configuration of INPUT, streamed in chunks. CSV output has 6*dof columns J<r><c>, row-major: r in 0..5 "
@@ -147,24 +128,20 @@ def register(sub) -> None:
         "  local_world_aligned  velocity of the link origin and angular velocity, world axes\n\n"
         "example:\n  kinematics jacobian --model panda --link panda_link8 --reference local q.csv -o J.npy\n\n"
         + EXIT_CODES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _model_options(jac)
     jac.add_argument("--link", metavar="NAME", help="the link (default: the model's first leaf link)")
     jac.add_argument("--reference", choices=REFERENCES, default=Reference.WORLD.value, help="reference frame (default world)")
     _io_options(jac)
     _log_options(jac)
-    jac.set_defaults(func=run_jacobian)
 
-    models = sub.add_parser(
-        "models",
+    models = add_command(
+        sub, "models", run_models, model=False,
         help="list the bundled catalogue",
         description="List the catalogue: example-robot-data URDFs and the DH presets shipped with the library.",
     )
     models.add_argument("ids", nargs="*", metavar="ID", help="only these models")
     models.add_argument("--dof", action="store_true", help="also load each model and show its dof, links and leaves (slower)")
     models.add_argument("--json", action="store_true", help="JSON output (one array)")
-    models.set_defaults(func=run_models)
 
 
 # ============================================================================ helpers

@@ -19,15 +19,15 @@ from ..io import serial
 from ..io.catalogue import default_catalogue
 from ..io.dh_table import load_table, table_to_dict
 from ..io.urdf import load_urdf
-from . import EXIT_OK, EXIT_USAGE
+from . import EXIT_OK, EXIT_USAGE, add_command
 
 KINDS = ("auto", "urdf", "dh", "poe", "axes")
 REPRESENTATIONS = ("rpy", "zyx", "zyz", "position", "scara", "planar")
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "symbolic",
+    p = add_command(
+        sub, "symbolic", run_symbolic, model=False,
         help="closed forms (A_i, T, Jacobians, task vectors) as LaTeX, text, Python or C",
         description="Derive the closed forms of a chain with sympy: the factors A_i, T(q), the Jacobians "
         "(local_world_aligned and world, linear rows first) and task vectors r(q), J_r = dr/dq. MODEL is a "
@@ -51,16 +51,14 @@ def register(sub) -> None:
                    help=f"time limit (default {api.DEFAULT_SYMBOLIC_TIMEOUT:g})")
     p.add_argument("--json", action="store_true", help="print the whole answer as JSON (the service's shape)")
     p.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
-    p.set_defaults(func=run_symbolic)
 
     for kind, label in (("poe", "a product-of-exponentials description (M, screws S_i or B_i)"),
                         ("axes", "a zero-configuration axes description (h_i, p_{i-1,i}, p_nT)")):
-        q = sub.add_parser(f"{kind}2urdf", help=f"build a URDF from {label}",
-                           description=f"Read {label} (.yaml/.yml/.json, the fields of POST /models/{kind}) "
-                           "and write its URDF (links base, link_1 .. link_n, tool).")
+        q = add_command(sub, f"{kind}2urdf", run_to_urdf, model=False, kind=kind, help=f"build a URDF from {label}",
+                        description=f"Read {label} (.yaml/.yml/.json, the fields of POST /models/{kind}) "
+                        "and write its URDF (links base, link_1 .. link_n, tool).")
         q.add_argument("description", metavar="FILE", help="description file (.yaml, .yml or .json)")
         q.add_argument("-o", "--output", metavar="FILE", help="write the URDF here (default: standard output)")
-        q.set_defaults(func=run_to_urdf, kind=kind)
 
 
 def _error(command: str, message: str) -> int:

@@ -7,7 +7,6 @@ JSON lines; see :class:`kinematics.io.trajectory.StateRows`) stream in chunks th
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 
@@ -19,8 +18,8 @@ from ..io.poses import tool_offset
 from ..io.result_files import ResultWriter, RowSampler
 from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
-from . import EXIT_OK, EXIT_USAGE
-from .pipeline import (_endpoints, _fail, _io_options, _model_options, _quietly, _resolve_links, _timing, _verdict,
+from . import EXIT_OK, EXIT_USAGE, add_command
+from .pipeline import (_endpoints, _fail, _io_options, _quietly, _resolve_links, _timing, _verdict,
                        model_or_exit_code, parse_point, verification_due)
 from .progress import progress
 
@@ -43,8 +42,8 @@ references (Pinocchio's getFrameVelocity):
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "velocity",
+    p = add_command(
+        sub, "velocity", run_velocity,
         help="velocity of links for every row of joint values and velocities of a file",
         description="Twist of links for every row (q, qdot) of INPUT, streamed in chunks, computed in one pass "
         "down the tree per configuration (the same as J(q) qdot of each link's Jacobian).",
@@ -52,9 +51,7 @@ def register(sub) -> None:
         "  kinematics velocity --model ur5 --links tool0 states.csv -o v.csv\n"
         "  kinematics velocity --model panda --reference world qqd.npy -o twists.npy --verify=100\n"
         "  kinematics velocity --model ur5 --links tool0 --point 0,0,0.1 states.jsonl\n",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _model_options(p)
     p.add_argument("--links", action="append", metavar="all|NAME[,NAME...]",
                    help="links to output: 'all' (default), or names (comma-separated or repeated)")
     p.add_argument("--reference", choices=REFERENCES, default=Reference.LOCAL_WORLD_ALIGNED.value,
@@ -62,7 +59,6 @@ def register(sub) -> None:
     p.add_argument("--point", metavar="X,Y,Z", help="the velocity of this point of each link (link frame, metres) "
                    "instead of the link origin (write --point=-0.1,0,0 when the first is negative)")
     _io_options(p, what="joint values and velocities")
-    p.set_defaults(func=run_velocity)
 
 
 def run_velocity(args) -> int:

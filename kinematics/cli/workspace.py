@@ -10,7 +10,6 @@ beside the convergence of the volume estimate.
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -22,9 +21,9 @@ from .. import api
 from ..algorithms.workspace import DEFAULT_SAMPLES, MEASURES, MIN_SAMPLES_PER_CELL, SAMPLES_PER_CELL
 from ..errors import MissingExtraError
 from ..usecases import Query
-from . import EXIT_OK, EXIT_USAGE
+from . import EXIT_OK, EXIT_USAGE, add_command
 from .collision import add_filter_options, filter_options
-from .pipeline import _fail, _model_options, atomic_file, model_or_exit_code, parse_point
+from .pipeline import _fail, atomic_file, model_or_exit_code, parse_point
 from .progress import progress
 
 OUTPUT_HELP = """output (-o, by extension):
@@ -42,8 +41,8 @@ the first N/4, N/2, N.""" % (SAMPLES_PER_CELL, MIN_SAMPLES_PER_CELL)
 
 
 def register(sub) -> None:
-    p = sub.add_parser(
-        "workspace",
+    p = add_command(
+        sub, "workspace", run_workspace,
         help="sample the workspace of a link: cloud, volume, reach, dexterity map and plot",
         description="Sample the reachable set of --link (or of --point on it) with N configurations drawn "
         "uniformly within the joint limits; print its bounding box, reach, volume (area for a planar arm) "
@@ -52,9 +51,7 @@ def register(sub) -> None:
         "  kinematics workspace --model ur5 --link tool0 -n 1000000 -o ws.npz --plot ws.png\n"
         "  kinematics workspace --model planar_2r -n 200000 --measure position --plot 2r.png\n"
         "  kinematics workspace --model panda --link panda_link8 --point 0,0,0.1 --voxel 0.05 -o tcp.csv\n",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _model_options(p)
     p.add_argument("--link", metavar="NAME", help="the link (default: the model's first leaf link)")
     p.add_argument("--point", metavar="X,Y,Z", help="sample this point of the link (link frame, metres) instead of "
                    "its origin (write --point=-0.1,0,0 when the first is negative)")
@@ -68,7 +65,6 @@ def register(sub) -> None:
     p.add_argument("--plot", metavar="PNG", help="draw the dexterity slices and the convergence (PNG)")
     add_filter_options(p, "--collision-free", "keep only the samples free of self-collision (joints off the link's "
                        "path at the middle of their limits); the summary says how many were dropped")
-    p.set_defaults(func=run_workspace)
 
 
 def run_workspace(args) -> int:
