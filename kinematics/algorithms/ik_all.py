@@ -232,15 +232,19 @@ _families = PerModel(lambda model: {})
 FAMILY_CACHE = 64
 
 
-def _chain_family(model: RobotModel, link: str, locked: dict | None, tool: np.ndarray | None) -> tuple[Chain, Family]:
-    """:func:`reduce_chain` and :func:`detect`, kept per model (``locked`` validated every time)."""
+def _chain_family(model: RobotModel, link: str, locked: dict | None,
+                  tool: np.ndarray | None) -> tuple[Chain, Family, tuple]:
+    """:func:`reduce_chain`, :func:`detect` and the chain as the compiled pass takes it (``h, r,
+    revolute, M`` and :func:`~kinematics.engine.ik_polish.lane_table`'s form), kept per model
+    (``locked`` validated every time)."""
     values = validate_locked(model, locked)
     key = (link, tuple(sorted(values.items())), None if tool is None else np.asarray(tool, dtype=float).tobytes())
     cache = _families(model)
     hit = cache.get(key)
     if hit is None:
         chain = reduce_chain(model, link, values, tool)
-        hit = (chain, detect(chain))
+        real = tuple(np.ascontiguousarray(a) for a in (chain.h, chain.r, chain.revolute, chain.M))
+        hit = (chain, detect(chain), real + ik_polish.lane_table(chain.h, chain.r, chain.M))
         if len(cache) >= FAMILY_CACHE:
             cache.clear()
         cache[key] = hit
@@ -260,7 +264,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         raise KinematicsError(f"limits: {limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
     if method not in METHODS:
         raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
-    chain, fam = _chain_family(model, link, locked, tool)
+    chain, fam, real = _chain_family(model, link, locked, tool)
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")
@@ -297,7 +301,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                                                      rotation_tolerance)
         else:
             # candidates, polish, check, duplicates and flags in one compiled pass per target
-            Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(model, poe, chain, fam, T_root, base_q,
+            Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(model, chain, fam, real, T_root, base_q,
                                                                               position_tolerance, rotation_tolerance)
             if fam.near:
                 short = np.flatnonzero(found < nominal)
@@ -309,7 +313,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
-        rows, owner, errors = _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
+        rows, owner, errors = _search(poe, link, tool, chain, real, T_root, base_q, search_seeds, position_only,
                                       position_tolerance, rotation_tolerance, model)
     complete = np.ones(N, bool)
     if use_closed and degenerate.size:
@@ -368,13 +372,13 @@ def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool,
     return rows[keep], owner[keep]
 
 
-def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only, position_tolerance,
+def _search(poe, link, tool, chain, real, T_root, base_q, search_seeds, position_only, position_tolerance,
             rotation_tolerance, model):
     """The multistart search: rows (R, dof), owner (R,) and their (position, rotation) errors."""
     N = len(T_root)
     seeds = _search_seeds(model, chain, search_seeds)
     if not position_only and not chain.mimic:
-        return _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance)
+        return _search_compiled(model, chain, real, T_root, base_q, seeds, position_tolerance, rotation_tolerance)
     owner = np.repeat(np.arange(N), len(seeds))
     Q = base_q[owner].copy()
     Q[:, chain.columns] = np.tile(seeds, (N, 1))
@@ -401,7 +405,7 @@ def _search(poe, link, tool, chain, T_root, base_q, search_seeds, position_only,
                      rotation_tolerance)
 
 
-def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
+def _search_compiled(model, chain, real, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
     """The multistart search of a pose in :func:`kinematics.engine.ik_polish.polish` (damped LM from
     every seed, then undamped steps near a solution), targets on the engine's threads."""
     N, S, dof = len(T_root), len(seeds), model.dof
@@ -413,8 +417,6 @@ def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, ro
     within = np.zeros((N, S), bool)
     sing = np.zeros((N, S), np.int8)
     T_root = np.ascontiguousarray(T_root)
-    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
-            np.ascontiguousarray(chain.M))
     cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
     lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
 
@@ -428,7 +430,7 @@ def _search_compiled(model, chain, T_root, base_q, seeds, position_tolerance, ro
     return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
 
 
-def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tolerance, rotation_tolerance):
+def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance):
     """Every solution by the family's compiled kernel and :func:`kinematics.engine.ik_polish.polish`,
     targets split over the engine's threads: q (N, C, dof) NaN-padded, count (N,), position and
     rotation errors (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular) and the
@@ -437,7 +439,8 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
     goals = inverse_transform(T_root) if fam.reversed else T_root
     # row by row (not a batched BLAS product): a target alone gets its batch answer
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
-    N, C, dof = G.shape[0], ik_closed.MAX_CANDIDATES, model.dof
+    C = ik_closed.MAX_CANDIDATES if fam.kernel == "spherical_wrist_search" else ik_fast.FAMILY_CANDIDATES
+    N, dof = G.shape[0], model.dof
     cand = np.empty((N, C, 6))
     ccount = np.zeros(N, dtype=np.int64)
     flag = np.zeros((N, C), dtype=np.int64)
@@ -454,8 +457,6 @@ def _closed_form_solutions(model, poe, chain, fam, T_root, base_q, position_tole
     prismatic3 = not bool(ideal.revolute[2])
     T_root = np.ascontiguousarray(T_root)
     goals = np.ascontiguousarray(goals)
-    real = (np.ascontiguousarray(chain.h), np.ascontiguousarray(chain.r), np.ascontiguousarray(chain.revolute),
-            np.ascontiguousarray(chain.M))
     ideal_chain = (h, r, np.ascontiguousarray(ideal.revolute), np.ascontiguousarray(ideal.M))
     cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
     lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)

@@ -56,7 +56,13 @@ def norm(a):
 @nb.njit(inline="always", **_JIT)
 def rot(k, theta, p):
     """``R(k, θ) p``."""
-    c, s = math.cos(theta), math.sin(theta)
+    return rot_cs(k, math.cos(theta), math.sin(theta), p)
+
+
+@nb.njit(inline="always", **_JIT)
+def rot_cs(k, c, s, p):
+    """``R(k, θ) p`` from ``c = cos θ``, ``s = sin θ`` (a rotation used more than once: its sine and
+    cosine once)."""
     kp = dot(k, p)
     kx = cross(k, p)
     w = (1.0 - c) * kp
@@ -189,6 +195,11 @@ def perpendicular(k):
     return scale(1.0 / norm(u), u)
 
 
+#: the most candidates :func:`three_parallel` and :func:`spherical_wrist` give a target: three
+#: subproblems in turn, each with at most two solutions (or two seeds)
+FAMILY_CANDIDATES = 8
+
+
 @nb.njit(inline="always", **_JIT)
 def _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, f):
     Q[t, n, 0], Q[t, n, 1], Q[t, n, 2] = q1, q2, q3
@@ -212,17 +223,20 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
         ta, tb, n1, f1 = sp4_seeds(h1, sub(p, r0), h0, dot(h1, sub(c, r0)), width)
         for i in range(n1):
             q1 = -(ta if i == 0 else tb)
-            a = rot(h0, -q1, mat(g, h5))
-            pp = about(h0, r0, -q1, p)
+            c1, s1 = math.cos(q1), -math.sin(q1)  # the rotation by −q1 (and by q1: c1, −s1)
+            a = rot_cs(h0, c1, s1, mat(g, h5))
+            pp = add(r0, rot_cs(h0, c1, s1, sub(p, r0)))
             t5a, t5b, n5, f5 = sp4_seeds(h1, h5, h4, dot(h1, a), width)
             for j in range(n5):
                 q5 = t5a if j == 0 else t5b
-                m6, f6 = sp1(rot(h4, -q5, h1), matT(g, rot(h0, q1, h1)), h5)
+                c5, s5 = math.cos(q5), -math.sin(q5)  # by −q5
+                m6, f6 = sp1(rot_cs(h4, c5, s5, h1), matT(g, rot_cs(h0, c1, -s1, h1)), h5)
                 q6 = -m6
+                c6, s6 = math.cos(q6), -math.sin(q6)  # by −q6
                 # R234 x = R1ᵀ Rd R6ᵀ R5ᵀ x
-                Ru = rot(h0, -q1, mat(g, rot(h5, -q6, rot(h4, -q5, u))))
+                Ru = rot_cs(h0, c1, s1, mat(g, rot_cs(h5, c6, s6, rot_cs(h4, c5, s5, u))))
                 theta, f234 = sp1(u, Ru, h1)
-                Rc = rot(h0, -q1, mat(g, rot(h5, -q6, rot(h4, -q5, sub(c, r3)))))
+                Rc = rot_cs(h0, c1, s1, mat(g, rot_cs(h5, c6, s6, rot_cs(h4, c5, s5, sub(c, r3)))))
                 p4 = sub(pp, Rc)
                 t3a, t3b, n3, f3 = sp3_seeds(sub(r3, r2), sub(r1, r2), h2, norm(sub(p4, r1)), width)
                 for k in range(n3):
@@ -238,11 +252,15 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
 @nb.njit(**_JIT)
 def _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, fpos, h0, h1, h2, h3, h4, h5, u):
     """The orientation part of a spherical wrist for one (q1, q2, q3): up to two candidates at n."""
+    c1, s1 = math.cos(q1), -math.sin(q1)  # the rotations by −q1, −q2, −q3
+    c2, s2 = math.cos(q2), -math.sin(q2)
+    c3, s3 = math.cos(q3), -math.sin(q3)
+
     def back(x):
-        y = rot(h0, -q1, x)
-        y = rot(h1, -q2, y)
+        y = rot_cs(h0, c1, s1, x)
+        y = rot_cs(h1, c2, s2, y)
         if not prismatic3:
-            y = rot(h2, -q3, y)
+            y = rot_cs(h2, c3, s3, y)
         return y
     w6 = back(mat(g, h5))
     a0, a1, b0, b1, m, f45 = sp2(w6, h5, h3, h4)

@@ -34,8 +34,10 @@ import math
 import numba as nb
 import numpy as np
 
-from .compiled import _sincos_row
+from .compiled import J_CZ, _joint_frames, _sincos_row
 from .ik import rotation_log
+from .plans import axis_frame
+from ..spatial.transforms import inverse_transform
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"contract"})
 
@@ -43,6 +45,24 @@ _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy", fast
 CONVERGED = 1e-28
 #: a squared pose error below this whose next step is refused is at the rounding floor (Newton stops)
 FLOOR = 1e-26
+#: targets whose candidates share one pass of the lane stage
+LANE_TARGETS = 16
+#: the lane stage's rotation error (atan of sin/cos by its series) where sin θ is below this and cos θ > 0
+LANE_SMALL_ANGLE = 1e-4
+
+
+def lane_table(h: np.ndarray, r: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The chain ``h``, ``r`` (n, 3), ``M`` (4, 4) in the FK kernel's axis-frame form
+    (:mod:`kinematics.engine.compiled`): ``table`` (n, 14) with ``CZ_j = G_{j-1}⁻¹ G_j`` in the
+    columns from ``J_CZ`` (``G_j``: z along ``h_j``, origin ``r_j``) and ``D = G_n⁻¹ M`` (4, 4), so that
+    ``F_j = F_{j-1} CZ_j Z(x_j)`` and the end pose is ``F_n D``."""
+    n = h.shape[0]
+    G = [axis_frame(np.asarray(h[j], dtype=float), np.asarray(r[j], dtype=float)) for j in range(n)]
+    table = np.zeros((n, 14))
+    for j in range(n):
+        CZ = G[j] if j == 0 else inverse_transform(G[j - 1]) @ G[j]
+        table[j, J_CZ:] = CZ[:3, :].reshape(12)
+    return table, np.ascontiguousarray(inverse_transform(G[-1]) @ M)
 
 
 @nb.njit(inline="always", **_JIT)
@@ -172,15 +192,22 @@ def damped_step(J, e, lam, A, b, dq):
 
 
 @nb.njit(inline="always", **_JIT)
+def wrapped(v):
+    """A revolute value into (−π, π] (a value already inside is left as it is)."""
+    if v > math.pi or v <= -math.pi + 1e-15:
+        w = v - 2.0 * math.pi * math.floor((v + math.pi) / (2.0 * math.pi))
+        if w > math.pi:
+            w -= 2.0 * math.pi
+        return math.pi if w <= -math.pi + 1e-15 else w
+    return v
+
+
+@nb.njit(inline="always", **_JIT)
 def wrap(x, rev):
-    """Revolute values into (−π, π] (values already inside are left as they are)."""
+    """Revolute values into (−π, π] (:func:`wrapped`, in place)."""
     for j in range(x.shape[0]):
-        v = x[j]
-        if rev[j] and (v > math.pi or v <= -math.pi + 1e-15):
-            w = v - 2.0 * math.pi * math.floor((v + math.pi) / (2.0 * math.pi))
-            if w > math.pi:
-                w -= 2.0 * math.pi
-            x[j] = math.pi if w <= -math.pi + 1e-15 else w
+        if rev[j]:
+            x[j] = wrapped(x[j])
 
 
 @nb.njit(inline="always", **_JIT)
@@ -324,12 +351,128 @@ def singular_ratio2(J, A):
 
 
 @nb.njit(**_JIT)
-def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps, lam0, damped, middle, tight, final,
-           reach, ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
+def _gram_index(a, b):
+    """The slot of entry (a, b), b <= a, of a packed lower triangle."""
+    return a * (a + 1) // 2 + b
+
+
+@nb.njit(**_JIT)
+def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, X, F, S, TT, E, JL, Gm, lp, lq, lb):
+    """The cheap first look at every candidate of targets ``t0..t1``, one candidate per lane, in loops
+    LLVM vectorises over the lanes (the FK kernel's axis-frame products, :func:`lane_table`'s form):
+
+    - ``X`` (n, L): the candidates' joint values (mapped for a ``reversed_`` chain, revolute wrapped
+      into (−π, π]), target by target, candidate by candidate;
+    - ``lp``, ``lq`` (L,): position and rotation errors on the real chain; ``lq`` is NaN where the
+      rotation error is not small (``sin θ`` at least :data:`LANE_SMALL_ANGLE` or ``cos θ <= 0``:
+      the scalar :func:`chain_error` decides there);
+    - ``lb`` (L,): ``|det J| / ‖J‖_F^6`` of the 6 x 6 Jacobian at the end point, from the Cholesky
+      factor of ``JᵀJ`` (NaN where that factor breaks down, or n != 6: the scalar test decides).
+
+    Returns the number of lanes used."""
+    n = rev.shape[0]
+    m = 0
+    for t in range(t0, t1):
+        T = targets[t]
+        for c in range(ccount[t]):
+            for j in range(n):
+                v = -cand[t, c, n - 1 - j] if reversed_ else cand[t, c, j]
+                X[j, m] = wrapped(v) if rev[j] else v
+            for a in range(3):
+                for b in range(4):
+                    TT[4 * a + b, m] = T[a, b]
+            m += 1
+    for j in range(n):
+        _sincos_row(X[j], S[0, j], S[1, j], m)
+        _joint_frames(F, j, j - 1, rev[j], table[j], S[0, j], S[1, j], X[j], m)
+    Fn = F[n - 1]
+    for a in range(3):
+        f0, f1, f2, f3 = Fn[4 * a], Fn[4 * a + 1], Fn[4 * a + 2], Fn[4 * a + 3]
+        for b in range(4):
+            e = E[4 * a + b]
+            d0, d1, d2, d3 = D[0, b], D[1, b], D[2, b], D[3, b]
+            for i in range(m):
+                e[i] = f0[i] * d0 + f1[i] * d1 + f2[i] * d2 + f3[i] * d3
+    for i in range(m):
+        dx, dy, dz = TT[3, i] - E[3, i], TT[7, i] - E[7, i], TT[11, i] - E[11, i]
+        lp[i] = math.sqrt(dx * dx + dy * dy + dz * dz)
+        # R = R_T R_Fᵀ: its skew part and trace
+        r01 = TT[0, i] * E[4, i] + TT[1, i] * E[5, i] + TT[2, i] * E[6, i]
+        r02 = TT[0, i] * E[8, i] + TT[1, i] * E[9, i] + TT[2, i] * E[10, i]
+        r10 = TT[4, i] * E[0, i] + TT[5, i] * E[1, i] + TT[6, i] * E[2, i]
+        r12 = TT[4, i] * E[8, i] + TT[5, i] * E[9, i] + TT[6, i] * E[10, i]
+        r20 = TT[8, i] * E[0, i] + TT[9, i] * E[1, i] + TT[10, i] * E[2, i]
+        r21 = TT[8, i] * E[4, i] + TT[9, i] * E[5, i] + TT[10, i] * E[6, i]
+        tr = (TT[0, i] * E[0, i] + TT[1, i] * E[1, i] + TT[2, i] * E[2, i]
+              + TT[4, i] * E[4, i] + TT[5, i] * E[5, i] + TT[6, i] * E[6, i]
+              + TT[8, i] * E[8, i] + TT[9, i] * E[9, i] + TT[10, i] * E[10, i])
+        vx, vy, vz = 0.5 * (r21 - r12), 0.5 * (r02 - r20), 0.5 * (r10 - r01)
+        sn = math.sqrt(vx * vx + vy * vy + vz * vz)
+        cs = 0.5 * (tr - 1.0)
+        x = sn / cs
+        x2 = x * x
+        theta = x * (1.0 - x2 * (1.0 / 3.0 - x2 * 0.2))  # atan(x), to rounding for x < 1e-4
+        lq[i] = theta if (cs > 0.0 and sn < LANE_SMALL_ANGLE) else np.nan
+    if n != 6:
+        for i in range(m):
+            lb[i] = np.nan
+        return m
+    for j in range(6):
+        Fj = F[j]
+        if rev[j]:
+            for i in range(m):
+                wx, wy, wz = Fj[2, i], Fj[6, i], Fj[10, i]
+                dx, dy, dz = E[3, i] - Fj[3, i], E[7, i] - Fj[7, i], E[11, i] - Fj[11, i]
+                JL[6 * j, i] = wy * dz - wz * dy
+                JL[6 * j + 1, i] = wz * dx - wx * dz
+                JL[6 * j + 2, i] = wx * dy - wy * dx
+                JL[6 * j + 3, i], JL[6 * j + 4, i], JL[6 * j + 5, i] = wx, wy, wz
+        else:
+            for i in range(m):
+                JL[6 * j, i], JL[6 * j + 1, i], JL[6 * j + 2, i] = Fj[2, i], Fj[6, i], Fj[10, i]
+                JL[6 * j + 3, i], JL[6 * j + 4, i], JL[6 * j + 5, i] = 0.0, 0.0, 0.0
+    for a in range(6):  # JᵀJ, packed lower triangle
+        for b in range(a + 1):
+            g = Gm[_gram_index(a, b)]
+            for i in range(m):
+                g[i] = 0.0
+            for k in range(6):
+                ja, jb = JL[6 * a + k], JL[6 * b + k]
+                for i in range(m):
+                    g[i] += ja[i] * jb[i]
+    for i in range(m):  # ‖J‖_F², before the factor overwrites the diagonal
+        lb[i] = Gm[0, i] + Gm[2, i] + Gm[5, i] + Gm[9, i] + Gm[14, i] + Gm[20, i]
+    for a in range(6):  # Cholesky in place: a negative pivot gives NaN, and the scalar test decides
+        for b in range(a + 1):
+            g = Gm[_gram_index(a, b)]
+            for k in range(b):
+                ga, gb = Gm[_gram_index(a, k)], Gm[_gram_index(b, k)]
+                for i in range(m):
+                    g[i] -= ga[i] * gb[i]
+            if a == b:
+                for i in range(m):
+                    g[i] = math.sqrt(g[i])
+            else:
+                gb = Gm[_gram_index(b, b)]
+                for i in range(m):
+                    g[i] = g[i] / gb[i]
+    for i in range(m):
+        f2 = lb[i]
+        lb[i] = (Gm[0, i] * Gm[2, i] * Gm[5, i] * Gm[9, i] * Gm[14, i] * Gm[20, i]) / max(f2 * f2 * f2, 1e-300)
+    return m
+
+
+@nb.njit(**_JIT)
+def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table, D, steps, lam0, damped, middle, tight,
+           final, reach, ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
     """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs.
-    ``damped`` (a search from seeds): LM from λ = ``lam0`` with steps of at most 0.5 per joint, then
-    ``middle`` undamped steps for a row that came within 1e-2 of a solution. A candidate whose first
-    error (m + rad) is above ``reach`` is dropped unpolished."""
+    ``table``, ``D``: the real chain in :func:`lane_table`'s form. Without ``damped``, the candidates
+    of :data:`LANE_TARGETS` targets at a time first get :func:`lane_stage`; a candidate it finds on its
+    solution to ``tight`` (most closed-form candidates) skips the scalar measure, and its singular
+    flag comes from the lane bound where that decides. ``damped`` (a search from seeds): LM from
+    λ = ``lam0`` with steps of at most 0.5 per joint, then ``middle`` undamped steps for a row that
+    came within 1e-2 of a solution. A candidate whose first error (m + rad) is above ``reach`` is
+    dropped unpolished."""
     n = h.shape[0]
     C = Q.shape[1]
     dof = base.shape[1]
@@ -347,71 +490,97 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, steps,
     sn, cs = np.empty(n), np.empty(n)
     x = np.empty(n)
     kept = np.empty((C, n))
-    for t in range(a, b_):
-        T = targets[t]
-        k = 0
-        for c in range(ccount[t]):
-            if k >= C:
-                break
-            finite = True
-            for j in range(n):
-                v = -cand[t, c, n - 1 - j] if reversed_ else cand[t, c, j]
-                x[j] = v
-                if not math.isfinite(v):
-                    finite = False
-            if not finite:
-                continue
-            wrap(x, rev)
-            p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
-            if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
-                continue
-            if not (p <= tight and q <= tight):
-                cost = levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A, bb, dq,
-                                           trial, sn, cs)
-                if damped and cost < 1e-4 and middle > 0:  # near a solution: undamped steps, quadratic convergence
-                    levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq,
-                                        trial, sn, cs)
-                wrap(x, rev)
-                p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
-            if p + q > tight and p < 10.0 * ptol and q < 10.0 * rtol and final > 0:
-                # near a solution but not on it to machine precision (a double root converges only linearly)
-                levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb, dq, trial,
-                                    sn, cs)
-                wrap(x, rev)
-                p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
-            if not (p <= ptol and q <= rtol):
-                continue
-            same = False
-            for i in range(k):
-                if same_solution(x, kept[i], rev, dup):
-                    same = True
-                    break
-            if same:
-                continue
-            for j in range(n):
-                kept[k, j] = x[j]
-            inside = True
-            for j in range(dof):
-                Q[t, k, j] = base[t, j]
-            for j in range(n):
-                Q[t, k, columns[j]] = x[j]
-            for j in range(dof):
-                v = Q[t, k, j]
-                if v < lower[j] - limit_tol or v > upper[j] + limit_tol:
-                    inside = False
-            pe[t, k], re[t, k], within[t, k] = p, q, inside
-            chain_jacobian(rev, F, W, O, J)
-            if n == 6 and det_bound(J, A) > singular:
-                s = 0
-            else:  # the bound does not decide: σ_min / σ_max itself
-                s = 1 if singular_ratio2(J, A) <= singular * singular else 0
-            sing[t, k] = s
-            k += 1
-        count[t] = k
-        for i in range(k, C):
-            for j in range(dof):
-                Q[t, i, j] = np.nan
-            pe[t, i], re[t, i], within[t, i], sing[t, i] = np.nan, np.nan, False, 0
+    lanes = not damped
+    L = LANE_TARGETS * cand.shape[1] if lanes else 1
+    w = L + 8  # rows of the lane arrays not 4 KiB apart
+    X, FL, S = np.empty((n, w)), np.empty((n, 12, w)), np.empty((2, n, w))
+    TT, E, JL, Gm = np.empty((12, w)), np.empty((12, w)), np.empty((6 * n, w)), np.empty((21, w))
+    lp, lq, lb = np.empty(w), np.empty(w), np.empty(w)
+    for g0 in range(a, b_, LANE_TARGETS):
+        g1 = min(g0 + LANE_TARGETS, b_)
+        if lanes:
+            lane_stage(cand, ccount, reversed_, targets, rev, table, D, g0, g1, X, FL, S, TT, E, JL, Gm, lp, lq, lb)
+        lane = 0
+        for t in range(g0, g1):
+            T = targets[t]
+            k = 0
+            for c in range(ccount[t]):
+                l = lane
+                lane += 1
+                if k >= C:
+                    continue
+                quick = lanes and lp[l] <= tight and lq[l] <= tight
+                if lanes and lp[l] + lq[l] > reach:  # (NaN: the scalar measure decides)
+                    continue
+                if quick:  # on its solution already: the lane's values
+                    for j in range(n):
+                        x[j] = X[j, l]
+                    p, q = lp[l], lq[l]
+                else:
+                    finite = True
+                    for j in range(n):
+                        v = -cand[t, c, n - 1 - j] if reversed_ else cand[t, c, j]
+                        x[j] = v
+                        if not math.isfinite(v):
+                            finite = False
+                    if not finite:
+                        continue
+                    wrap(x, rev)
+                    p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                    if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
+                        continue
+                    if not (p <= tight and q <= tight):
+                        cost = levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A,
+                                                   bb, dq, trial, sn, cs)
+                        if damped and cost < 1e-4 and middle > 0:  # near a solution: undamped steps
+                            levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A,
+                                                bb, dq, trial, sn, cs)
+                        wrap(x, rev)
+                        p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                    if p + q > tight and p < 10.0 * ptol and q < 10.0 * rtol and final > 0:
+                        # near a solution but not on it to machine precision (a double root converges only linearly)
+                        levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb,
+                                            dq, trial, sn, cs)
+                        wrap(x, rev)
+                        p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                if not (p <= ptol and q <= rtol):
+                    continue
+                same = False
+                for i in range(k):
+                    if same_solution(x, kept[i], rev, dup):
+                        same = True
+                        break
+                if same:
+                    continue
+                for j in range(n):
+                    kept[k, j] = x[j]
+                inside = True
+                for j in range(dof):
+                    Q[t, k, j] = base[t, j]
+                for j in range(n):
+                    Q[t, k, columns[j]] = x[j]
+                for j in range(dof):
+                    v = Q[t, k, j]
+                    if v < lower[j] - limit_tol or v > upper[j] + limit_tol:
+                        inside = False
+                pe[t, k], re[t, k], within[t, k] = p, q, inside
+                if quick and lb[l] > singular:
+                    s = 0
+                else:
+                    if quick:  # the scalar frames at x, for the Jacobian
+                        chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
+                    chain_jacobian(rev, F, W, O, J)
+                    if n == 6 and det_bound(J, A) > singular:
+                        s = 0
+                    else:  # the bound does not decide: σ_min / σ_max itself
+                        s = 1 if singular_ratio2(J, A) <= singular * singular else 0
+                sing[t, k] = s
+                k += 1
+            count[t] = k
+            for i in range(k, C):
+                for j in range(dof):
+                    Q[t, i, j] = np.nan
+                pe[t, i], re[t, i], within[t, i], sing[t, i] = np.nan, np.nan, False, 0
 
 
 @nb.njit(**_JIT)

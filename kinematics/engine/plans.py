@@ -68,7 +68,7 @@ _REFERENCE_CODES = {Reference.WORLD: compiled.REF_WORLD, Reference.LOCAL_WORLD_A
                     Reference.LOCAL: compiled.REF_LOCAL}
 
 
-def _axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:
+def axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:
     """A frame ``G`` (4x4) with origin ``r`` and z axis ``w`` (unit); exact for coordinate axes."""
     G = np.eye(4)
     G[:3, 3] = r
@@ -131,7 +131,7 @@ class Kernel:
         n = len(poe.joint_names)
         L = len(poe.link_names)
         self.n, self.L = n, L
-        G = np.array([_axis_frame(poe.w[j], poe.r[j]) for j in range(n)]).reshape(n, 4, 4)
+        G = np.array([axis_frame(poe.w[j], poe.r[j]) for j in range(n)]).reshape(n, 4, 4)
         CZ = np.empty((n, 4, 4))
         for j in range(n):
             p = poe.parent[j]

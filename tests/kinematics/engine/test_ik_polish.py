@@ -69,3 +69,66 @@ def test_a_batch_equals_its_targets_alone_and_threads_do_not_change_bits():
         alone = ik_all.all_solutions(model, "tool0", T[i:i + 1], limits="ignore")
         k = alone.count[0]
         assert k == one.count[i] and np.array_equal(alone.q[0, :k], one.q[i, :k])
+
+
+def _lane_inputs(rid, link, locked, count, rng):
+    """Candidates near and far from targets of a chain: ``cand`` (N, 8, n) per target, half of them the
+    generating configuration plus noise from 0 to 1 rad, and a wrist-singular one where the chain has q5."""
+    model = default_catalogue().get(rid)
+    chain = reduce_chain(model, link, locked)
+    Q = model.sample_configurations(count, rng)
+    for name, v in (locked or {}).items():
+        Q[:, model.q_index[name]] = v
+    T = np.ascontiguousarray(compile_model(model).fk(Q, [link])[:, 0])
+    x = Q[:, chain.columns]
+    noise = 10.0 ** rng.uniform(-16, 0, size=(count, 8, 1)) * rng.normal(size=(count, 8, chain.n))
+    noise[:, ::2] = 0.0
+    cand = np.ascontiguousarray(x[:, None, :] + noise)
+    if chain.n == 6:
+        cand[:, 2, 4] = 0.0  # the wrist (or elbow) lined up: a singular Jacobian where q5 is the wrist
+    return chain, T, cand
+
+
+@pytest.mark.parametrize("rid, link, locked", CASES)
+def test_the_lane_stage_measures_as_the_scalar_path(rid, link, locked):
+    rng = np.random.default_rng(11)
+    N = 12
+    chain, T, cand = _lane_inputs(rid, link, locked, N, rng)
+    n = chain.n
+    ccount = np.full(N, 8, dtype=np.int64)
+    table, D = ik_polish.lane_table(chain.h, chain.r, chain.M)
+    L = N * 8 + 8
+    X, F, S = np.empty((n, L)), np.empty((n, 12, L)), np.empty((2, n, L))
+    TT, E, JL, Gm = np.empty((12, L)), np.empty((12, L)), np.empty((6 * n, L)), np.empty((21, L))
+    lp, lq, lb = np.empty(L), np.empty(L), np.empty(L)
+    m = ik_polish.lane_stage(cand, ccount, False, T, chain.revolute, table, D, 0, N, X, F, S, TT, E, JL, Gm, lp, lq, lb)
+    assert m == N * 8
+    Fs, W, O, J, A = np.empty((4, 4)), np.empty((n, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((n, n))
+    e, R, out, sn, cs = np.empty(6), np.empty((3, 3)), np.empty(3), np.empty(n), np.empty(n)
+    small = decided = 0
+    for lane in range(m):
+        t, c = divmod(lane, 8)
+        x = cand[t, c].copy()
+        ik_polish.wrap(x, chain.revolute)
+        assert np.array_equal(X[:, lane], x)
+        p, q = ik_polish.chain_error(chain.h, chain.r, chain.revolute, chain.M, x, T[t], Fs, W, O, sn, cs, e, R, out)
+        assert lp[lane] == pytest.approx(p, rel=1e-9, abs=1e-15)
+        if np.isnan(lq[lane]):  # the lane leaves large rotation errors to the scalar path
+            assert q > 0.9 * ik_polish.LANE_SMALL_ANGLE
+        else:
+            small += 1
+            assert lq[lane] == pytest.approx(q, rel=1e-9, abs=1e-15)
+        ik_polish.chain_jacobian(chain.revolute, Fs, W, O, J)
+        if n != 6:
+            continue
+        s = np.linalg.svd(J, compute_uv=False)
+        if np.isfinite(lb[lane]):
+            exact = ik_polish.det_bound(J, A)
+            if exact > 1e-6:  # (JᵀJ squares the condition: below, the bound is only small, as it should be)
+                decided += 1
+                assert lb[lane] == pytest.approx(exact, rel=1e-6)
+            if lb[lane] > ik_all.SINGULAR:  # what polish trusts the lane bound for: a regular Jacobian
+                assert s[-1] / s[0] > ik_all.SINGULAR
+        else:  # the factor broke down: only on a (nearly) singular Jacobian
+            assert s[-1] / s[0] < 1e-6
+    assert small >= m // 2 and (n != 6 or decided >= m // 2)
