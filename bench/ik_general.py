@@ -1,7 +1,8 @@
 """The general 6R (``python -m bench.run_all --only ik-general``): the 16-degree elimination against the
 multistart search and IK-Geo's general 6R.
 
-Per random DH table (generic: no family): ``n`` random configurations, their pose as the target.
+Per random DH table (generic: no family), and a Jaco-like arm (the elimination on a cyclic shift of
+the loop): ``n`` random configurations, their pose as the target.
 Ours: :func:`kinematics.algorithms.ik_all.all_solutions` (``method="auto"``: the elimination of
 :mod:`kinematics.algorithms.ik_general`) on the batch; the search: the same with ``method="numeric"``
 (512 Halton seeds, damped Newton) on a tenth of the targets (it is slow); IK-Geo's ``gen_six_dof``
@@ -36,6 +37,15 @@ def _random_6r(seed: int):
     return model_from_table(table_from_dict({"name": f"random_6r_{seed}", "convention": "standard", "joints": rows}))
 
 
+def _jaco_like():
+    """Axes 1, 2 meet, 2 ∥ 3, and axes 4, 5, 6 each meeting the next at 60° (no common point): the
+    elimination degenerates on the chain and reversed, and runs on a cyclic shift of the loop."""
+    table = [(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502),
+             (1.047, 0, -0.0858), (np.pi, 0, -0.2116)]
+    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
+    return model_from_table(table_from_dict({"name": "jaco_like", "convention": "standard", "joints": rows}))
+
+
 def _contains(qs, q) -> bool:
     return len(qs) > 0 and bool(np.abs(np.mod(qs - q + np.pi, 2 * np.pi) - np.pi).max(axis=1).min() < SAME)
 
@@ -47,8 +57,7 @@ def run(report: Report, quick: bool = False) -> None:
         ik_geo = None
     n = 50 if quick else 300
     rows = []
-    for seed in (101, 102, 103):
-        model = _random_6r(seed)
+    for model in [_random_6r(seed) for seed in (101, 102, 103)] + [_jaco_like()]:
         link = model.leaf_links[0]
         chain = reduce_chain(model, link)
         fam = detect(chain)

@@ -309,4 +309,7 @@ def detect(ch: Chain) -> Family:
         rch = ch.reversed()
         if ik_general.usable(rch):
             return Family("general_6r", (1,), True, 16, ch, rch, reversed=True, kernel="general_6r")
+        # degenerate both ways (a Jaco-like wrist): the elimination on a cyclic shift of the loop, per target
+        if ik_general.usable(ch, shifts=True):
+            return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
     return Family("general", (), False, 16 if ch.n == 6 else None, ch)

@@ -23,7 +23,10 @@ is missed; each real one gives ``θ₄, θ₅`` from the null vector
 of ``M(x₃)``, ``θ₁, θ₂`` from the 14 equations by least squares, ``θ₆`` from the orientation
 (subproblem 1). The angles are offset by fixed irrational-looking shifts before the half-angle
 substitution so that no solution sits at ``x = ∞``. Every candidate is then polished by Newton
-steps on the real FK and checked there (:mod:`kinematics.algorithms.ik_all`).
+steps on the real FK and checked there (:mod:`kinematics.algorithms.ik_all`). Where the chain's
+geometry makes the elimination degenerate (two consecutive axes meeting can make the 8 unknowns
+dependent), the caller runs it on the reversed chain, and a target where it degenerates still is
+solved on a cyclic shift of the loop (:func:`_shifted`).
 
 >>> from kinematics.io.dh_table import model_from_table, table_from_dict
 >>> from kinematics.engine.poe import compile_model
@@ -48,6 +51,7 @@ position ``q₂``: one solution.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -241,7 +245,9 @@ def general_6r_candidates(chain: Chain, T_root: np.ndarray) -> tuple[np.ndarray,
     gets count −1 (the caller searches there; see :func:`usable`)."""
     T_root = np.asarray(T_root, dtype=float).reshape(-1, 4, 4)
     m = _model(chain)
-    sols = _solve(m, np.einsum("nij,jk->nik", T_root, np.linalg.inv(chain.M))) if len(T_root) else []
+    G = np.einsum("nij,jk->nik", T_root, np.linalg.inv(chain.M))
+    sols = _solve(m, G) if len(T_root) else []
+    sols = [s if s is not None else _shifted(chain, G[n]) for n, s in enumerate(sols)]
     K = max(16, max((len(s) for s in sols if s is not None), default=0))
     Q = np.zeros((len(T_root), K, 6))
     count = np.zeros(len(T_root), dtype=np.int64)
@@ -250,6 +256,33 @@ def general_6r_candidates(chain: Chain, T_root: np.ndarray) -> tuple[np.ndarray,
         if s is not None and len(s):
             Q[n, :len(s)] = s
     return Q, count
+
+
+def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
+    """The candidates (K, 6) of one target ``g`` (4, 4) by the elimination on a cyclic shift of the
+    loop, or None where every shift degenerates too.
+
+    ``e₁ ⋯ e₆ = g`` is also ``e_{k+1} ⋯ e₆ · e₁' ⋯ e_k' = g`` with ``e_j' = g⁻¹ e_j g`` (the screw
+    ``Ad_{g⁻¹} S_j``: axis ``R_gᵀ h_j`` through ``g⁻¹ r_j``), a 6R chain of the same joint values in
+    the order ``k+1 .. 6, 1 .. k``. A chain whose own geometry makes the elimination degenerate
+    forwards and reversed (two consecutive axes meeting, a Jaco-like wrist) is generic in some shift,
+    because the shifted chain's link from joint 6 to joint 1 is the target's."""
+    R, p = G[:3, :3], G[:3, 3]
+    for k in range(1, 6):
+        order = list(range(k, 6)) + list(range(k))
+        h = np.concatenate([chain.h[k:], chain.h[:k] @ R])
+        r = np.concatenate([chain.r[k:], (chain.r[:k] - p) @ R])
+        shifted = replace(chain, h=h, r=r, M=np.eye(4), joints=tuple(chain.joints[i] for i in order),
+                          columns=chain.columns[order], revolute=chain.revolute[order])
+        m = _Model6R(shifted)
+        if m.fit_residual > FIT_TOLERANCE * m.scale:
+            continue
+        sols = _solve(m, G[None])[0]
+        if sols is not None:
+            q = np.empty_like(sols)
+            q[:, order] = sols
+            return q
+    return None
 
 
 _CACHE: dict[int, tuple[Chain, _Model6R]] = {}
@@ -266,15 +299,17 @@ def _model(chain: Chain) -> _Model6R:
     return m
 
 
-def usable(chain: Chain, trials: int = 3) -> bool:
+def usable(chain: Chain, trials: int = 3, shifts: bool = False) -> bool:
     """True when the elimination applies to the 6R ``chain``: six revolute joints, the structure fits
     exact, and on ``trials`` poses of random configurations nothing degenerates and the generating
     configuration is among the candidates (a chain of special geometry -- e.g. two axes meeting --
-    can make the 8 unknowns of the right side dependent; it is then left to the search)."""
+    can make the 8 unknowns of the right side dependent). ``shifts``: the same test of the
+    elimination on the cyclic shifts of the loop (:func:`_shifted`), for a chain where it
+    degenerates forwards and reversed."""
     if chain.n != 6 or not bool(np.all(chain.revolute)) or chain.mimic:
         return False
     m = _model(chain)
-    if m.fit_residual > FIT_TOLERANCE * m.scale:
+    if not shifts and m.fit_residual > FIT_TOLERANCE * m.scale:
         return False
     rng = np.random.default_rng(11)
     for _ in range(trials):
@@ -285,7 +320,7 @@ def usable(chain: Chain, trials: int = 3) -> bool:
             E[:3, :3] = _rot(chain.h[j], q[j:j + 1])[0]
             E[:3, 3] = chain.r[j] - E[:3, :3] @ chain.r[j]
             G = G @ E
-        sols = _solve(m, G[None])[0]
+        sols = _shifted(chain, G) if shifts else _solve(m, G[None])[0]
         if sols is None or not len(sols) or np.abs(np.angle(np.exp(1j * (np.array(sols) - q)))).max(axis=1).min() > 1e-6:
             return False
     return True

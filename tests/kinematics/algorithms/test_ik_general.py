@@ -100,7 +100,7 @@ def test_general_6r_raw_candidates_are_near_exact_and_include_the_generating_con
     # a Jaco-like arm (axes 1, 2 meet, 2 ∥ 3, axes 4, 5, 6 each meeting the next): degenerate both ways,
     # left to the multistart search
     ([(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502), (1.047, 0, -0.0858),
-      (np.pi, 0, -0.2116)], "general", False, "search"),
+      (np.pi, 0, -0.2116)], "general_6r", False, "analytic"),
 ])
 def test_a_6r_of_special_geometry_reversed_or_left_to_the_search(table, family, reversed_, method):
     """Never a silent empty answer: where the elimination degenerates on the chain it runs on the
@@ -119,6 +119,27 @@ def test_a_6r_of_special_geometry_reversed_or_left_to_the_search(table, family, 
         assert search.count[n] == ours.count[n]
         for q in search.q[n, :search.count[n]]:
             assert _contains(ours.q[n, :ours.count[n]], q)
+    _pinocchio_exact(model, link, ours, T)
+
+
+def test_a_jaco_like_arm_is_solved_on_cyclic_shifts_of_the_loop():
+    """Degenerate forwards and reversed, the elimination runs per target on a shift of the loop: no
+    target is left to the search, and every generating configuration is a candidate."""
+    table = [(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502),
+             (1.047, 0, -0.0858), (np.pi, 0, -0.2116)]
+    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
+    model = model_from_table(table_from_dict({"name": "jaco_like", "convention": "standard", "joints": rows}))
+    link = model.leaf_links[0]
+    chain = reduce_chain(model, link)
+    assert not ik_general.usable(chain) and not ik_general.usable(chain.reversed())
+    Q, T = _targets(model, link, 30, seed=9)
+    cand, count = ik_general.general_6r_candidates(chain, T)
+    assert (count >= 0).all()
+    for n in range(len(T)):
+        assert _contains(cand[n, :count[n]], Q[n])
+    ours = all_solutions(model, link, T, limits="ignore")
+    assert ours.family.name == "general_6r" and ours.method == "analytic"
+    assert (ours.count <= count).all() and ours.count.max() > 8  # more than any subproblem family has
     _pinocchio_exact(model, link, ours, T)
 
 
