@@ -103,18 +103,30 @@ def trig(A, B, C):
 
 
 @nb.njit(inline="always", **_JIT)
-def sp1(p1, p2, k):
+def sp1_cs(p1, p2, k):
+    """(θ, cos θ, sin θ, flag) of subproblem 1, ``R(k, θ) p1 = p2`` (the cosine and sine from the
+    same two numbers as θ: a rotation by θ needs no trigonometric call)."""
     kp1, kp2 = dot(k, p1), dot(k, p2)
     a = sub(p1, scale(kp1, k))
     b = sub(p2, scale(kp2, k))
     na, nb_ = norm(a), norm(b)
     sc = max(na, nb_, 1.0)
     if na <= ZERO * sc or nb_ <= ZERO * sc:
-        return 0.0, DEGENERATE
-    theta = math.atan2(dot(k, cross(a, b)), dot(a, b))
+        return 0.0, 1.0, 0.0, DEGENERATE
+    y, x = dot(k, cross(a, b)), dot(a, b)
+    theta = math.atan2(y, x)
+    rr = math.sqrt(x * x + y * y)
+    c, s = x / rr, y / rr
     if abs(na - nb_) > 1e-9 * sc or abs(kp1 - kp2) > 1e-9 * sc:
-        return theta, LEAST_SQUARES
-    return theta, EXACT
+        return theta, c, s, LEAST_SQUARES
+    return theta, c, s, EXACT
+
+
+@nb.njit(inline="always", **_JIT)
+def sp1(p1, p2, k):
+    """(θ, flag) of subproblem 1 (:func:`sp1_cs`)."""
+    theta, _, _, flag = sp1_cs(p1, p2, k)
+    return theta, flag
 
 
 @nb.njit(inline="always", **_JIT)
@@ -133,23 +145,31 @@ def sp4(h, p, k, d):
 
 
 @nb.njit(inline="always", **_JIT)
-def sp2(p1, p2, k1, k2):
-    """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
+def sp2_cs(p1, p2, k1, k2):
+    """(θ1a, θ1b, θ2a, θ2b, count, flag, (cos, sin) of each of the four) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
     base, n, g, count, flag = sp2_image(p1, p2, k1, k2)
     if flag == DEGENERATE:
-        return 0.0, 0.0, 0.0, 0.0, 1, DEGENERATE
+        return 0.0, 0.0, 0.0, 0.0, 1, DEGENERATE, (1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0)
     x = add(base, scale(g, n))
-    a0, f1 = sp1(p1, x, k1)
-    b0, f2 = sp1(p2, x, k2)
+    a0, ca0, sa0, f1 = sp1_cs(p1, x, k1)
+    b0, cb0, sb0, f2 = sp1_cs(p2, x, k2)
     if f1 == DEGENERATE or f2 == DEGENERATE:
         flag = DEGENERATE
     a1 = b1 = 0.0
+    ca1, sa1, cb1, sb1 = 1.0, 0.0, 1.0, 0.0
     if count == 2:
         x = sub(base, scale(g, n))
-        a1, f1 = sp1(p1, x, k1)
-        b1, f2 = sp1(p2, x, k2)
+        a1, ca1, sa1, f1 = sp1_cs(p1, x, k1)
+        b1, cb1, sb1, f2 = sp1_cs(p2, x, k2)
         if f1 == DEGENERATE or f2 == DEGENERATE:
             flag = DEGENERATE
+    return a0, a1, b0, b1, count, flag, (ca0, sa0, ca1, sa1, cb0, sb0, cb1, sb1)
+
+
+@nb.njit(inline="always", **_JIT)
+def sp2(p1, p2, k1, k2):
+    """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2`` (:func:`sp2_cs`)."""
+    a0, a1, b0, b1, count, flag, _ = sp2_cs(p1, p2, k1, k2)
     return a0, a1, b0, b1, count, flag
 
 
@@ -230,9 +250,8 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
             for j in range(n5):
                 q5 = t5a if j == 0 else t5b
                 c5, s5 = math.cos(q5), -math.sin(q5)  # by −q5
-                m6, f6 = sp1(rot_cs(h4, c5, s5, h1), matT(g, rot_cs(h0, c1, -s1, h1)), h5)
-                q6 = -m6
-                c6, s6 = math.cos(q6), -math.sin(q6)  # by −q6
+                m6, c6, s6, f6 = sp1_cs(rot_cs(h4, c5, s5, h1), matT(g, rot_cs(h0, c1, -s1, h1)), h5)
+                q6 = -m6  # (the rotation by −q6 = m6: c6, s6)
                 # R234 x = R1ᵀ Rd R6ᵀ R5ᵀ x
                 Ru = rot_cs(h0, c1, s1, mat(g, rot_cs(h5, c6, s6, rot_cs(h4, c5, s5, u))))
                 theta, f234 = sp1(u, Ru, h1)
@@ -263,11 +282,14 @@ def _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, fpos, h0, h1, h2, h3, 
             y = rot_cs(h2, c3, s3, y)
         return y
     w6 = back(mat(g, h5))
-    a0, a1, b0, b1, m, f45 = sp2(w6, h5, h3, h4)
+    a0, a1, b0, b1, m, f45, cs = sp2_cs(w6, h5, h3, h4)
     for b in range(m):
         q4 = -(a0 if b == 0 else a1)
         q5 = b0 if b == 0 else b1
-        vv = rot(h4, -q5, rot(h3, -q4, back(mat(g, u))))
+        # the rotations by −q4 (= θ1 of subproblem 2) and −q5, from its cosines and sines
+        c4, s4 = (cs[0], cs[1]) if b == 0 else (cs[2], cs[3])
+        c5, s5 = (cs[4], -cs[5]) if b == 0 else (cs[6], -cs[7])
+        vv = rot_cs(h4, c5, s5, rot_cs(h3, c4, s4, back(mat(g, u))))
         q6, f6 = sp1(u, vv, h5)
         _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, max(fpos, f45, f6))
         n += 1

@@ -46,7 +46,7 @@ CONVERGED = 1e-28
 #: a squared pose error below this whose next step is refused is at the rounding floor (Newton stops)
 FLOOR = 1e-26
 #: targets whose candidates share one pass of the lane stage
-LANE_TARGETS = 16
+LANE_TARGETS = 32
 #: the lane stage's rotation error (atan of sin/cos by its series) where sin θ is below this and cos θ > 0
 LANE_SMALL_ANGLE = 1e-4
 
@@ -510,7 +510,7 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table,
                 if k >= C:
                     continue
                 quick = lanes and lp[l] <= tight and lq[l] <= tight
-                if lanes and lp[l] + lq[l] > reach:  # (NaN: the scalar measure decides)
+                if lanes and (lp[l] > reach or lp[l] + lq[l] > reach):  # (NaN: the scalar measure decides)
                     continue
                 if quick:  # on its solution already: the lane's values
                     for j in range(n):
