@@ -293,22 +293,30 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     degenerate = np.zeros(0, dtype=np.intp)
     general = fam.kernel in ik_general.KERNELS
     if use_closed:
-        if general:  # general 6R elimination, short-chain closed forms (numpy)
+        if general and position_only:  # a 2R's position (numpy)
             cand, counts = ik_general.family_candidates(fam, T_root, position_only)
-            degenerate = np.flatnonzero(counts < 0)  # the elimination degenerates there: the search joins in
             rows, owner, errors = _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand,
                                                      np.maximum(counts, 0), position_only, position_tolerance,
                                                      rotation_tolerance)
         else:
-            # candidates, polish, check, duplicates and flags in one compiled pass per target
-            Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(model, chain, fam, real, T_root, base_q,
-                                                                              position_tolerance, rotation_tolerance)
-            if fam.near:
+            if general:  # the general 6R elimination, the short chains' closed forms, then the compiled pass
+                cand, counts = ik_general.family_candidates(fam, T_root, position_only)
+                degenerate = np.flatnonzero(counts < 0)  # the elimination degenerates there: the search joins in
+                Qk, found, pe, re, within, sing = _compiled_pass(
+                    model, chain, real, T_root, base_q, np.ascontiguousarray(cand), np.maximum(counts, 0), False,
+                    POLISH_STEPS, 1e-12, False, 0, POLISH_STEPS, np.inf, position_tolerance, rotation_tolerance)
+                nominal = None
+            else:  # candidates, polish, check, duplicates and flags in one compiled pass per target
+                Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(
+                    model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance)
+            if fam.near and not general:
                 short = np.flatnonzero(found < nominal)
-            if not (fam.near and short.size) and limits == "ignore" and seed is None:
+            else:
+                short = np.zeros(0, dtype=np.intp)
+            if not (short.size or degenerate.size) and limits == "ignore" and seed is None:
                 K = int(found.max(initial=0))
                 return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K],
-                                    found >= nominal if fam.near else np.ones(N, bool), fam,
+                                    found >= nominal if nominal is not None else np.ones(N, bool), fam,
                                     "analytic" if fam.closed_form else "search")
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
@@ -408,61 +416,66 @@ def _search(poe, link, tool, chain, real, T_root, base_q, search_seeds, position
 def _search_compiled(model, chain, real, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
     """The multistart search of a pose in :func:`kinematics.engine.ik_polish.polish` (damped LM from
     every seed, then undamped steps near a solution), targets on the engine's threads."""
-    N, S, dof = len(T_root), len(seeds), model.dof
+    N, S = len(T_root), len(seeds)
     cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, chain.n))
-    ccount = np.full(N, S, dtype=np.int64)
-    Qk = np.empty((N, S, dof))
-    found = np.zeros(N, dtype=np.int64)
-    pe, re = np.empty((N, S)), np.empty((N, S))
-    within = np.zeros((N, S), bool)
-    sing = np.zeros((N, S), np.int8)
-    T_root = np.ascontiguousarray(T_root)
-    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
-    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
-
-    def rows(a: int, b: int) -> None:
-        ik_polish.polish(cand, ccount, False, T_root, base_q, cols, *real, SEARCH_STEPS, 1e-2, True, 6 * POLISH_STEPS,
-                         TIGHT, FINAL_STEPS, np.inf, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
-                         LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
-
-    run_rows(rows, N, min_rows=1, piece_rows=1)
+    Qk, found, pe, re, within, sing = _compiled_pass(
+        model, chain, real, T_root, base_q, cand, np.full(N, S, dtype=np.int64), False, SEARCH_STEPS, 1e-2, True,
+        6 * POLISH_STEPS, FINAL_STEPS, np.inf, position_tolerance, rotation_tolerance, min_rows=1, piece_rows=1)
     slot = np.arange(S)[None, :] < found[:, None]
     return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
 
 
+def _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, reversed_, steps, lam0, damped, middle, final,
+                   reach, position_tolerance, rotation_tolerance, before=None, after=None, min_rows=CLOSED_FORM_MIN_ROWS,
+                   piece_rows=None):
+    """:func:`kinematics.engine.ik_polish.polish` of the candidates ``cand`` (N, C, n), ``ccount`` (N,)
+    of targets ``T_root`` over the engine's threads; ``before(a, b)`` and ``after(a, b)`` run on the same
+    thread before and after each row range (a family's kernel writing the candidates, a near family's
+    reference count). Returns q (N, C, dof) NaN-padded, count (N,), position and rotation errors
+    (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular)."""
+    N, C, dof = cand.shape[0], cand.shape[1], model.dof
+    Qk = np.empty((N, C, dof))
+    found = np.zeros(N, dtype=np.int64)
+    pe, re = np.empty((N, C)), np.empty((N, C))
+    within = np.zeros((N, C), bool)
+    sing = np.zeros((N, C), np.int8)
+    T_root = np.ascontiguousarray(T_root)
+    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
+    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+
+    def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
+        if before is not None:
+            before(a, b)
+        ik_polish.polish(cand, ccount, reversed_, T_root, base_q, cols, *real, steps, lam0, damped, middle, TIGHT,
+                         final, reach, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
+                         LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
+        if after is not None:
+            after(a, b)
+
+    run_rows(rows, N, min_rows=min_rows, piece_rows=piece_rows)
+    return Qk, found, pe, re, within, sing
+
+
 def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance):
-    """Every solution by the family's compiled kernel and :func:`kinematics.engine.ik_polish.polish`,
-    targets split over the engine's threads: q (N, C, dof) NaN-padded, count (N,), position and
-    rotation errors (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular) and the
-    ideal chain's counts (N,; a near family, else None)."""
+    """Every solution by the family's compiled kernel and :func:`_compiled_pass`: the arrays of
+    :func:`_compiled_pass` and the ideal chain's counts (N,; a near family, else None)."""
     ideal = fam.ideal
     goals = inverse_transform(T_root) if fam.reversed else T_root
     # row by row (not a batched BLAS product): a target alone gets its batch answer
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
     C = ik_closed.MAX_CANDIDATES if fam.kernel == "spherical_wrist_search" else ik_fast.FAMILY_CANDIDATES
-    N, dof = G.shape[0], model.dof
+    N = G.shape[0]
     cand = np.empty((N, C, 6))
     ccount = np.zeros(N, dtype=np.int64)
     flag = np.zeros((N, C), dtype=np.int64)
-    Qk = np.empty((N, C, dof))
-    found = np.zeros(N, dtype=np.int64)
-    pe, re = np.empty((N, C)), np.empty((N, C))
-    within = np.zeros((N, C), bool)
-    sing = np.zeros((N, C), np.int8)  # 1: singular
     nominal = np.zeros(N, dtype=np.int64) if fam.near else None
     cand0 = np.empty((N, C, 6)) if fam.near else None
     count0 = np.zeros(N, dtype=np.int64)
     h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
     centre = np.ascontiguousarray(fam.centre)
     prismatic3 = not bool(ideal.revolute[2])
-    T_root = np.ascontiguousarray(T_root)
     goals = np.ascontiguousarray(goals)
     ideal_chain = (h, r, np.ascontiguousarray(ideal.revolute), np.ascontiguousarray(ideal.M))
-    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
-    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
-    steps = NEAR_STEPS if fam.near else POLISH_STEPS
-    final = FINAL_STEPS if fam.near else POLISH_STEPS
-    reach = np.inf if fam.near else EXACT_REACH
 
     def candidates(a, b, width, out, n):
         if fam.kernel == "spherical_wrist_search":
@@ -472,18 +485,18 @@ def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tol
         else:
             ik_fast.three_parallel(G[a:b], h, r, centre, width, out[a:b], n[a:b], flag[a:b])
 
-    def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
-        candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount)
-        ik_polish.polish(cand, ccount, fam.reversed, T_root, base_q, cols, *real, steps, 1e-12, False, 0, TIGHT, final,
-                         reach, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper, LIMIT_TOLERANCE, SINGULAR,
-                         a, b, Qk, found, pe, re, within, sing)
-        if fam.near:
-            candidates(a, b, 0.0, cand0, count0)
-            ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
-                              a, b, nominal)
+    def reference(a, b):  # a near family: the ideal chain's own count
+        candidates(a, b, 0.0, cand0, count0)
+        ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
+                          a, b, nominal)
 
-    run_rows(rows, N, min_rows=CLOSED_FORM_MIN_ROWS)
-    return Qk, found, pe, re, within, sing, nominal
+    out = _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, fam.reversed,
+                         NEAR_STEPS if fam.near else POLISH_STEPS, 1e-12, False, 0,
+                         FINAL_STEPS if fam.near else POLISH_STEPS, np.inf if fam.near else EXACT_REACH,
+                         position_tolerance, rotation_tolerance,
+                         before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),
+                         after=reference if fam.near else None)
+    return out + (nominal,)
 
 
 def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

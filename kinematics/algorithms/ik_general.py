@@ -268,7 +268,8 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
     forwards and reversed (two consecutive axes meeting, a Jaco-like wrist) is generic in some shift,
     because the shifted chain's link from joint 6 to joint 1 is the target's."""
     R, p = G[:3, :3], G[:3, 3]
-    for k in range(1, 6):
+    hint = _SHIFT_HINT.get(id(chain), 1)
+    for k in [hint] + [k for k in range(1, 6) if k != hint]:  # the shift that worked last first
         order = list(range(k, 6)) + list(range(k))
         h = np.concatenate([chain.h[k:], chain.h[:k] @ R])
         r = np.concatenate([chain.r[k:], (chain.r[:k] - p) @ R])
@@ -279,10 +280,17 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
             continue
         sols = _solve(m, G[None])[0]
         if sols is not None:
+            if len(_SHIFT_HINT) > 32:
+                _SHIFT_HINT.clear()
+            _SHIFT_HINT[id(chain)] = k
             q = np.empty_like(sols)
             q[:, order] = sols
             return q
     return None
+
+
+#: the shift of the loop that last gave a chain (by id) a non-degenerate elimination (an order, not a result)
+_SHIFT_HINT: dict[int, int] = {}
 
 
 _CACHE: dict[int, tuple[Chain, _Model6R]] = {}

@@ -330,14 +330,36 @@ def _wrist_on_a_general_arm():
     return model_from_table(table_from_dict({"name": "wrist_general", "convention": "standard", "joints": rows}))
 
 
-def test_a_spherical_wrist_on_a_general_arm_by_the_bracketing_search():
+def test_the_bracketing_search_of_a_wrist_on_a_general_arm_finds_each_generating_configuration():
+    """The compiled search over q1 (the fallback where the elimination does not apply)."""
+    from kinematics.engine import ik_fast
+    from kinematics.spatial.transforms import inverse_transform
+
+    model = _wrist_on_a_general_arm()
+    link = model.leaf_links[0]
+    chain = reduce_chain(model, link)
+    fam = detect(chain)
+    Q, T = _targets(model, link, 20, seed=6)
+    r = chain.r.copy()
+    r[3:6] = fam.centre
+    G = np.ascontiguousarray(np.einsum("nij,jk->nik", T, inverse_transform(chain.M)))
+    cand, count, flag = np.zeros((20, 16, 6)), np.zeros(20, np.int64), np.zeros((20, 16), np.int64)
+    ik_fast.spherical_wrist_search(G, np.ascontiguousarray(chain.h), r, np.ascontiguousarray(fam.centre),
+                                   ik_fast.SEARCH_SAMPLES, cand, count, flag)
+    for n in range(20):
+        d = np.abs(np.angle(np.exp(1j * (cand[n, :count[n]] - Q[n])))).max(axis=1)
+        assert d.min() < 1e-7
+
+
+def test_a_spherical_wrist_on_a_general_arm_by_the_elimination():
     model = _wrist_on_a_general_arm()
     link = model.leaf_links[0]
     fam = detect(reduce_chain(model, link))
-    assert (fam.name, fam.closed_form, fam.max_solutions) == ("spherical_wrist_general", False, 8)
+    assert (fam.name, fam.closed_form, fam.max_solutions, fam.kernel) == ("spherical_wrist_general", True, 8,
+                                                                          "general_6r")
     Q, T = _targets(model, link, 60, seed=6)
     sol = all_solutions(model, link, T, limits="ignore")
-    assert sol.method == "search" and sol.count.max() <= 8
+    assert sol.method == "analytic" and sol.count.max() <= 8
     cols = np.arange(6)
     for n in range(len(Q)):
         assert _contains(sol, n, Q[n], cols)
