@@ -24,8 +24,10 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
    singular value of the free joints' 6 x n Jacobian below ``SINGULAR`` times the largest).
 
 Unreachable targets have ``count`` 0. A near-family chain has its solution count checked against
-the ideal chain's: where the polish found fewer, the search joins in for that target, and
-``complete`` is False where the real chain still has fewer solutions than the ideal one.
+the ideal chain's: where the polish found fewer, the elimination of the real 6R chain
+(:mod:`kinematics.algorithms.ik_general`: every solution) joins in for that target, trusted where
+it did not degenerate and found again every solution the polish had found; elsewhere the search
+joins in, and ``complete`` is False where that still leaves fewer solutions than the ideal chain has.
 
 The Puma 560 reaches a generic pose in eight ways:
 
@@ -85,7 +87,7 @@ class SolutionArrays:
 
     q: (N, K, dof), NaN in padding; count: (N,); within_limits, singular: (N, K) bool (False in
     padding); position_error (metres), rotation_error (radians): (N, K), NaN in padding;
-    complete: (N,) False where a near-family branch was lost.
+    complete: (N,) False where a near-family target left to the search has fewer solutions than the ideal chain.
     """
 
     q: np.ndarray
@@ -330,26 +332,20 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         errors = None
     if use_closed and fam.near and not general:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
-        # lost by a singularity or the edge of the reach), the search joins in for that target
-        if short.size:
-            extra = all_solutions(model, link, T_root[short], tool=tool, locked=locked, limits="ignore",
-                                  method="numeric", mode=mode, position_tolerance=position_tolerance,
-                                  rotation_tolerance=rotation_tolerance, search_seeds=search_seeds)
-            more = [np.concatenate([rows[owner == n], _with_free(base_q[n], chain, extra.q[i, :extra.count[i]])])
-                    for i, n in enumerate(short)]
-            keep_rows = [rows[owner == n] for n in range(N)]
-            for i, n in enumerate(short):
-                keep_rows[n] = more[i]
-            owner = np.concatenate([np.full(len(r), n, dtype=np.intp) for n, r in enumerate(keep_rows)])
-            rows = np.concatenate(keep_rows) if owner.size else rows
-            starts = np.concatenate([[0], np.cumsum([len(r) for r in keep_rows])]).astype(np.intp)
-            keep = np.zeros(len(rows), bool)
-            ik_closed.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE,
-                                    keep)
-            rows, owner = rows[keep], owner[keep]
-            found = np.bincount(owner, minlength=N)
-            errors = None
+        # lost by a singularity or the edge of the reach), the elimination of the real chain (every
+        # solution) joins in for that target, or where it cannot apply, the search
         complete = found >= nominal
+        if short.size:
+            rows, owner, proven = _join_elimination(model, chain, real, T_root, short, rows, owner, base_q,
+                                                    position_only, position_tolerance, rotation_tolerance)
+            complete[short[proven]] = True
+            rest = short[~proven]
+            if rest.size:
+                rows, owner = _join_search(model, link, T_root, rest, rows, owner, base_q, chain, tool, locked, mode,
+                                           position_tolerance, rotation_tolerance, search_seeds)
+            found = np.bincount(owner, minlength=N)
+            complete[rest] = found[rest] >= nominal[rest]
+            errors = None
     if limits == "respect":
         rows, owner = _all_copies(model, chain, rows, owner)
         errors = None
@@ -365,13 +361,45 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
 def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool, locked, mode, position_tolerance,
                  rotation_tolerance, search_seeds):
     """``rows``, ``owner`` with the multistart search's solutions of the ``targets`` (indices) merged in."""
-    N = len(T_root)
     extra = all_solutions(model, link, T_root[targets], tool=tool, locked=locked, limits="ignore", method="numeric",
                           mode=mode, position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
                           search_seeds=search_seeds)
+    more = [_with_free(base_q[n], chain, extra.q[i, :extra.count[i]]) for i, n in enumerate(targets)]
+    return _merge(chain, len(T_root), rows, owner, targets, more)
+
+
+def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, position_only, position_tolerance,
+                      rotation_tolerance):
+    """``rows``, ``owner`` with the solutions of the ``targets`` (indices) by the 16-degree elimination
+    of the real chain (:mod:`.ik_general`, every solution) merged in, and a mask (len(targets),) of the
+    targets it solved (False: it degenerates there, or does not apply to the chain)."""
+    proven = np.zeros(len(targets), bool)
+    if position_only or not ik_general.applies(chain):
+        return rows, owner, proven
+    cand, counts = ik_general.general_6r_candidates(chain, T_root[targets])
+    # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
+    Qk, found, *_ = _compiled_pass(model, chain, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
+                                   np.maximum(counts, 0), False, NEAR_STEPS, 1e-12, False, 0, FINAL_STEPS, np.inf,
+                                   position_tolerance, rotation_tolerance)
+    more = [Qk[i, :found[i]] for i in range(len(targets))]
+    # trusted where it did not degenerate and found again every solution the closed form's polish found
+    # (where it misses one of those, its roots are not to be trusted there: the search joins in)
+    cols = chain.columns
+    for i, n in enumerate(targets):
+        known = rows[owner == n][:, cols]
+        mine = more[i][:, cols]
+        proven[i] = counts[i] >= 0 and all(
+            len(mine) and np.abs(np.mod(mine - q + np.pi, 2 * np.pi) - np.pi).max(axis=1).min() <= DUPLICATE
+            for q in known)
+    return (*_merge(chain, len(T_root), rows, owner, targets, more), proven)
+
+
+def _merge(chain, N, rows, owner, targets, more):
+    """``rows`` (R, dof), ``owner`` (R,) of N targets with the rows ``more[i]`` of target ``targets[i]``
+    added, each solution of a target once (in target order)."""
     per = [rows[owner == n] for n in range(N)]
     for i, n in enumerate(targets):
-        per[n] = np.concatenate([per[n], _with_free(base_q[n], chain, extra.q[i, :extra.count[i]])])
+        per[n] = np.concatenate([per[n], more[i]])
     owner = np.concatenate([np.full(len(r), n, dtype=np.intp) for n, r in enumerate(per)]) if N else owner
     rows = np.concatenate(per) if N else rows
     starts = np.concatenate([[0], np.cumsum([len(r) for r in per])]).astype(np.intp)

@@ -289,6 +289,21 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
     return None
 
 
+def applies(chain: Chain) -> bool:
+    """:func:`usable` on the chain itself or on the cyclic shifts of its loop (kept per chain): the
+    elimination gives every solution of its targets (a target where it still degenerates: count −1)."""
+    hit = _APPLIES.get(id(chain))
+    if hit is not None and hit[0] is chain:
+        return hit[1]
+    ok = usable(chain) or usable(chain, shifts=True)
+    if len(_APPLIES) > 32:
+        _APPLIES.clear()
+    _APPLIES[id(chain)] = (chain, ok)
+    return ok
+
+
+_APPLIES: dict[int, tuple[Chain, bool]] = {}
+
 #: the shift of the loop that last gave a chain (by id) a non-degenerate elimination (an order, not a result)
 _SHIFT_HINT: dict[int, int] = {}
 

@@ -12,6 +12,7 @@ import pytest
 
 from kinematics import api, compile_model, default_catalogue
 from kinematics.algorithms.ik import inverse_kinematics, pose_errors
+from kinematics.algorithms import ik_all
 from kinematics.algorithms.ik_all import all_solutions
 from kinematics.algorithms.ik_families import detect, reduce_chain
 from kinematics.errors import LockedJointError
@@ -161,6 +162,28 @@ def test_a_calibrated_ur5_gets_every_solution(catalogue):
             assert search.count[n] <= sol.count[n]
             for q in search.q[n, :search.count[n]]:
                 assert _contains(sol, n, q, cols)
+
+
+def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catalogue):
+    """Targets where the polish of the ideal chain's closed form finds fewer solutions than the ideal
+    chain has: the elimination of the real chain (or the search, where it is not trusted) lists every
+    exact solution a dense search finds."""
+    model = _calibrated(catalogue.get("ur5"), seed=3)
+    Q, T = _targets(model, "tool0", 600, seed=2026)
+    chain, fam, real = ik_all._chain_family(model, "tool0", None, None)
+    _, found, *_, nominal = ik_all._closed_form_solutions(model, chain, fam, real, T, np.zeros((len(T), 6)),
+                                                          1e-6, 1e-6)
+    short = np.flatnonzero(found < nominal)[:6]
+    assert short.size >= 2, "the calibration must move some targets across a branch point"
+    sol = all_solutions(model, "tool0", T[short], limits="ignore")
+    assert (sol.count > found[short]).any()  # the elimination found branches the polish had lost
+    dense = all_solutions(model, "tool0", T[short], limits="ignore", method="numeric", search_seeds=2048,
+                          position_tolerance=1e-9, rotation_tolerance=1e-9)
+    cols = np.arange(6)
+    for i in range(len(short)):
+        assert _contains(sol, i, Q[short[i]], cols)
+        for q in dense.q[i, :dense.count[i]]:
+            assert _contains(sol, i, q, cols)
 
 
 def test_singular_targets_give_flagged_representatives(catalogue):
