@@ -204,6 +204,12 @@ def about(k, o, theta, p):
 
 
 @nb.njit(inline="always", **_JIT)
+def about_cs(k, o, c, s, p):
+    """:func:`about` from ``c = cos θ``, ``s = sin θ``."""
+    return add(o, rot_cs(k, c, s, sub(p, o)))
+
+
+@nb.njit(inline="always", **_JIT)
 def perpendicular(k):
     i = 0
     if abs(k[1]) < abs(k[i]):
@@ -269,11 +275,10 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
 
 
 @nb.njit(**_JIT)
-def _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, fpos, h0, h1, h2, h3, h4, h5, u):
-    """The orientation part of a spherical wrist for one (q1, q2, q3): up to two candidates at n."""
-    c1, s1 = math.cos(q1), -math.sin(q1)  # the rotations by −q1, −q2, −q3
-    c2, s2 = math.cos(q2), -math.sin(q2)
-    c3, s3 = math.cos(q3), -math.sin(q3)
+def _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, fpos, h0, h1, h2, h3, h4, h5, u):
+    """The orientation part of a spherical wrist for one (q1, q2, q3): up to two candidates at n.
+    ``back3``: (cos, sin) of the rotations by −q1, −q2, −q3, as the position part found them."""
+    c1, s1, c2, s2, c3, s3 = back3
 
     def back(x):
         y = rot_cs(h0, c1, s1, x)
@@ -311,13 +316,16 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
             ta, tb, n1, f1 = sp4_seeds(h1, sub(p, r0), h0, dot(h1, sub(c, r0)), width)
             for i in range(n1):
                 q1 = -(ta if i == 0 else tb)
-                pp = about(h0, r0, -q1, p)
+                c1, s1 = math.cos(q1), -math.sin(q1)  # by −q1
+                pp = about_cs(h0, r0, c1, s1, p)
                 t3a, t3b, n3, f3 = sp3_seeds(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)), width)
                 for j in range(n3):
                     q3 = t3a if j == 0 else t3b
-                    x = about(h2, r2, q3, c)
-                    q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+                    c3, s3 = math.cos(q3), math.sin(q3)
+                    x = about_cs(h2, r2, c3, s3, c)
+                    q2, c2, s2, f2 = sp1_cs(sub(x, r1), sub(pp, r1), h1)
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, (c1, s1, c2, -s2, c3, -s3), prismatic3,
+                                    max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
         elif position == 1 or position == 2:  # axes 1, 2 meet at o
             o = r0
             d = norm(sub(p, o))
@@ -327,7 +335,8 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     if j >= n3:
                         break
                     q3 = t3a if j == 0 else t3b
-                    x = about(h2, r2, q3, c)
+                    c3, s3 = math.cos(q3), math.sin(q3)
+                    x = about_cs(h2, r2, c3, s3, c)
                 else:
                     co = sub(c, o)
                     bq = dot(h2, co)
@@ -339,23 +348,30 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     if j == 1 and s == 0.0:
                         break
                     q3 = -bq + s if j == 0 else -bq - s
+                    c3, s3 = 1.0, 0.0  # (a prismatic joint 3: no rotation)
                     x = add(c, scale(q3, h2))
-                a0, a1, b0, b1, m, f2 = sp2(sub(p, o), sub(x, o), h0, h1)
+                a0, a1, b0, b1, m, f2, cs = sp2_cs(sub(p, o), sub(x, o), h0, h1)
                 for i in range(m):
                     q1 = -(a0 if i == 0 else a1)
                     q2 = b0 if i == 0 else b1
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f2, f3), h0, h1, h2, h3, h4, h5, u)
+                    # by −q1 = θ1 of subproblem 2, by −q2 = −θ2
+                    back3 = ((cs[0], cs[1], cs[4], -cs[5]) if i == 0 else (cs[2], cs[3], cs[6], -cs[7])) + (c3, -s3)
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, max(f2, f3), h0, h1, h2, h3, h4,
+                                    h5, u)
         else:  # axes 1 ∥ 2
             t3a, t3b, n3, f3 = sp4_seeds(h0, sub(c, r2), h2, dot(h0, sub(p, r2)), width)
             for j in range(n3):
                 q3 = t3a if j == 0 else t3b
-                x = about(h2, r2, q3, c)
+                c3, s3 = math.cos(q3), math.sin(q3)
+                x = about_cs(h2, r2, c3, s3, c)
                 t2a, t2b, n2, f2 = sp3_seeds(sub(x, r1), sub(r0, r1), h1, norm(sub(p, r0)), width)
                 for i in range(n2):
                     q2 = t2a if i == 0 else t2b
-                    y = about(h1, r1, q2, x)
-                    q1, f1 = sp1(sub(y, r0), sub(p, r0), h0)
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, prismatic3, max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+                    c2, s2 = math.cos(q2), math.sin(q2)
+                    y = about_cs(h1, r1, c2, s2, x)
+                    q1, c1, s1, f1 = sp1_cs(sub(y, r0), sub(p, r0), h0)
+                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, (c1, -s1, c2, -s2, c3, -s3), prismatic3,
+                                    max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
         count[t] = n
 
 
@@ -417,7 +433,8 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
                     x = about(h2, r2, q3, c)
                     q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
                     if n + 2 <= Q.shape[1]:
-                        n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, False, f2, h0, h1, h2, h3, h4, h5, u)
+                        back3 = (math.cos(q1), -math.sin(q1), math.cos(q2), -math.sin(q2), math.cos(q3), -math.sin(q3))
+                        n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, False, f2, h0, h1, h2, h3, h4, h5, u)
                 a, fa = bq, fb
         count[t] = n
 
