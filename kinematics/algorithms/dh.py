@@ -10,9 +10,9 @@ URDF -> DH (:func:`urdf_to_dh`): the table of a serial chain, following its join
 The chain is the path from the root link to ``tip`` (the only leaf when not given). At
 q = 0 every moving joint on it gives a line in the world frame: its axis direction ``w_k``
 through the joint origin (for a prismatic joint only the direction matters; the line
-through the joint origin is used). Frames are then placed on these lines as in the notes
-``000_*`` (Wen, "DH and modified DH") and ``001_*`` (De Luca, "ambiguities in defining DH
-frames"):
+through the joint origin is used). Frames are then placed on these lines as in Wen's
+Robotics I notes ("DH and modified DH") and De Luca's Robotics 1 slides ("ambiguities in
+defining DH frames"):
 
 - consecutive axes **not parallel**: the x axis is the common normal
   ``x = (w_k x w_{k+1}) / |w_k x w_{k+1}|`` (intersecting axes: ``a = 0``), placed at the
@@ -108,7 +108,7 @@ def dh_transforms(table: DHTable, Q) -> np.ndarray:
 
     ``Q`` is (N, n) (or (n,) for one configuration), in row order.
 
-    The 2R planar arm of the notes (``a1 = a2 = 1``): frame 2 at ``(c_1 + c_12, s_1 + s_12)``.
+    De Luca's 2R planar arm (``a1 = a2 = 1``): frame 2 at ``(c_1 + c_12, s_1 + s_12)``.
 
     >>> from kinematics.io import table_from_dict
     >>> row = {"type": "R", "a": 1, "alpha": 0, "d": 0, "theta": 0}
@@ -130,7 +130,8 @@ def dh_transforms(table: DHTable, Q) -> np.ndarray:
 def dh_tool_pose(table: DHTable, Q) -> np.ndarray:
     """Tool poses (N, 4, 4): ``T_world_tool = base A_1 ... A_n tool``.
 
-    The RPR arm of the notes (``003_*``, ``d1 = 0.3``, ``d3 = 0.1``) has the closed form
+    The RPR arm of the forward-kinematics example in Spong's convention (``d1 = 0.3``,
+    ``d3 = 0.1``) has the closed form
     ``T3_0 = [[c1 c3, -c1 s3, s1, s1 (d2 + d3)], [s1 c3, -s1 s3, -c1, -c1 (d2 + d3)],
     [s3, c3, 0, d1]]``; at ``theta1 = 90°``, ``d2 = 0.2``, ``theta3 = 0``:
 

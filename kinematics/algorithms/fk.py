@@ -4,7 +4,8 @@
 joints on the path from the root to ``L`` (the engine evaluates the product; a base pose
 ``T_world_root`` is the identity unless given).
 
-The worked examples of the course notes, on the bundled DH presets:
+Worked examples from the literature (De Luca's Robotics 1 slides, Spong's convention), on the
+bundled DH presets:
 
 >>> import numpy as np
 >>> from kinematics.io import default_catalogue
@@ -24,7 +25,8 @@ The SCARA (``a1 = 0.325``, ``a2 = 0.275``, ``d1 = 0.4``, ``d4 = -0.1``): the too
 >>> forward_kinematics(scara, q, ["tool"])[0, 0, :3, 3].round(12) + 0.0
 array([0.275, 0.325, 0.25 ])
 
-The RPR arm of ``003_*`` (``d1 = 0.3``, ``d3 = 0.1``): ``p = (s1 (d2 + d3), -c1 (d2 + d3), d1)``.
+The RPR arm of the forward-kinematics example in Spong's convention (``d1 = 0.3``, ``d3 = 0.1``):
+``p = (s1 (d2 + d3), -c1 (d2 + d3), d1)``.
 
 >>> rpr = catalogue.get("rpr_example")
 >>> forward_kinematics(rpr, [[0.0, 0.2, 0.5]], ["tool"])[0, 0, :3, 3].round(12) + 0.0

@@ -1,8 +1,8 @@
 """Task vectors ``r = (p, phi)`` and analytic Jacobians ``J_r = dr/dq`` (numeric, batched).
 
 A task vector stacks the position ``p`` of a link's origin (world axes) and an orientation
-``phi`` in one of these representations, or any subset of their components (the notes
-``001_*``: "r = f_r(q)", m <= 6 components chosen for the task):
+``phi`` in one of these representations, or any subset of their components (De Luca's
+Robotics 1 slides: "r = f_r(q)", m <= 6 components chosen for the task):
 
 ==============  ============================  ===========================================
 representation  components of phi            rotation
@@ -15,7 +15,7 @@ representation  components of phi            rotation
 ==============  ============================  ===========================================
 
 The position components are ``px, py, pz``. Named subsets: ``position`` = ``(px, py, pz)``;
-``scara`` = ``(px, py, pz, alpha_z)`` (the SCARA of ``001_*``: ``alpha_z = q1 + q2 + q4``);
+``scara`` = ``(px, py, pz, alpha_z)`` (De Luca's SCARA: ``alpha_z = q1 + q2 + q4``);
 ``planar`` = ``(px, py, phi)`` with ``phi = alpha_z`` (the planar arms: ``phi = q1 + q2``).
 
 The analytic Jacobian is ``J_r = blockdiag(I, E(phi)^-1) J`` with ``J`` the geometric

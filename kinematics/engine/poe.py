@@ -20,7 +20,7 @@ stacked ``(N, 4, 4)`` products, exactly the formulas above -- stays here as
 Jacobians are 6 x dof, **linear rows first**, in one of three references (Pinocchio's
 meaning): ``world``, ``local``, ``local_world_aligned``.
 
-The 3R spatial open chain of Modern Robotics (Example 4.2, the notes ``002_*``), with
+The 3R spatial open chain of Modern Robotics (Lynch & Park, Example 4.2), with
 ``L1 = 0.6``, ``L2 = 0.4``: ``S_1 = (0,0,1; 0,0,0)``, ``S_2 = (0,-1,0; 0,0,-L1)``,
 ``S_3 = (1,0,0; 0,-L2,0)`` and ``M = [[0,0,1,L1],[0,1,0,0],[-1,0,0,-L2]]``. Turning joint 2
 by π/2 swings the tool from ``(L1, 0, -L2)`` to ``(L1 + L2, 0, 0)``:

@@ -2,7 +2,7 @@
 
 For joint values ``q`` and joint velocities ``qdot`` (both (N, dof)) the kernel computes, for
 every requested link, the velocity of its origin and its angular velocity, by propagation
-from the root (the course notes' "velocity propagation", ``004_*``) on the axis frames of the
+from the root (Craig's outward velocity propagation) on the axis frames of the
 FK kernel (:func:`kinematics.engine.compiled._chunk_frames`):
 
     ω_j = ω_parent + θ̇_j z_j                                    (revolute)

@@ -1,4 +1,4 @@
-"""Zero-configuration axes descriptions (Wen, the notes ``000_*``) -> URDF.
+"""Zero-configuration axes descriptions (Wen's Robotics I lecture notes) -> URDF.
 
 In the zero configuration every joint frame is aligned with the base frame, so a chain is
 read off in base coordinates: per joint its type, its axis ``h_i`` and the link vector

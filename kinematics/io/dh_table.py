@@ -5,11 +5,11 @@ Conventions (``docs/design.md``, "Denavit-Hartenberg"). Per row: ``a``, ``alpha`
 column of the joint variable holds its value at q = 0: ``theta = q + theta_row``
 (revolute) or ``d = q + d_row`` (prismatic).
 
-- standard (distal; Spong, the notes ``001_*``/``003_*``)::
+- standard (distal; Spong; De Luca's Robotics 1 slides)::
 
       A_i = Rot_z(theta_i) Trans_z(d_i) Trans_x(a_i) Rot_x(alpha_i)
 
-- modified (proximal; Craig, the notes ``004_*``), row i holds ``a_{i-1}``, ``alpha_{i-1}``::
+- modified (proximal; Craig), row i holds ``a_{i-1}``, ``alpha_{i-1}``::
 
       A_i = Rot_x(alpha_{i-1}) Trans_x(a_{i-1}) Rot_z(theta_i) Trans_z(d_i)
 

@@ -1,4 +1,4 @@
-"""Product-of-exponentials descriptions (Modern Robotics, the notes ``002_*``) -> URDF.
+"""Product-of-exponentials descriptions (Lynch & Park, Modern Robotics) -> URDF.
 
 A description gives the home pose ``M`` of the end-effector frame and one screw per joint,
 angular part first, either in the space frame (``S``: ``T(q) = exp([S_1] q_1) ... exp([S_n]

@@ -316,7 +316,7 @@ def test_dh_preset_is_listed_with_its_table_and_matches_the_closed_form(api_clie
     l1, l2 = rows[0]["a"], rows[1]["a"]
     q1, q2 = 0.4, -1.1
     fk = api_client.post("/models/planar_2r/fk", json={"q": [q1, q2], "links": ["tool"]}).json()
-    # notes 001_*: p = (l1 c1 + l2 c12, l1 s1 + l2 s12, 0)
+    # De Luca's 2R planar arm: p = (l1 c1 + l2 c12, l1 s1 + l2 s12, 0)
     np.testing.assert_allclose(fk["poses"]["tool"]["position"],
                                [l1 * np.cos(q1) + l2 * np.cos(q1 + q2), l1 * np.sin(q1) + l2 * np.sin(q1 + q2), 0.0],
                                atol=1e-12)

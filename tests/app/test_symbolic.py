@@ -31,7 +31,7 @@ def test_rpr_preset_in_latex(api_client):
     r = api_client.post("/models/rpr_example/symbolic", json={"what": ["transforms", "jacobian"]})
     assert r.status_code == 200, r.text
     body = r.json()
-    assert body["T"] == RPR_T3_0  # 003_*: T3_0 with d1 = 0.3, d3 = 0.1, d2 = q2
+    assert body["T"] == RPR_T3_0  # Spong-convention RPR example: T3_0 with d1 = 0.3, d3 = 0.1, d2 = q2
     assert body["joint_variables"] == [{"symbol": "q1", "joint": "joint_1"}, {"symbol": "q2", "joint": "joint_2"},
                                        {"symbol": "q3", "joint": "joint_3"}]
     assert body["parameters"] == [] and body["simplified"] and len(body["A"]) == 3

@@ -25,11 +25,13 @@ joint names); a mimic joint contributes ``multiplier * q_leader + offset``.
 **Composition.** The rotation is kept as ``R_s Rot(w, Theta) C``: consecutive joints whose axes
 stay parallel add their angles (``Theta = q2 + q3 + q4``), a constant rotation about the same
 axis folds into ``Theta`` (the Panda's hand: ``q7 - pi/4``), and everything else is expanded;
-so ``T`` comes out in the notes' terms (``c_12``, ``s_124``) without trigonometric search.
+so ``T`` comes out in the textbooks' compact terms (``c_12``, ``s_124``) without trigonometric
+search.
 ``simplify=True`` then runs sympy's ``simplify`` on every entry (factoring ``s1 d2 + s1 d3``
 into ``s1 (d2 + d3)``); that is the slow part, and :func:`run_with_timeout` bounds it.
 
-The RPR arm of the notes (``003_*``) has ``T3_0 = [[c1 c3, -c1 s3, s1, s1 (d2 + d3)], ...]``:
+The RPR arm of the forward-kinematics example in Spong's convention has
+``T3_0 = [[c1 c3, -c1 s3, s1, s1 (d2 + d3)], ...]``:
 
 >>> table = symbolic_table_from_dict({"angles": "degrees", "joints": [
 ...     {"type": "R", "a": 0, "alpha": 90, "d": "d1", "theta": 0},

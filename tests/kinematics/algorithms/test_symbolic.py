@@ -1,4 +1,4 @@
-"""Closed forms (kinematics.algorithms.symbolic): the notes' examples come out equal, every DH
+"""Closed forms (kinematics.algorithms.symbolic): the textbook examples come out equal, every DH
 preset and the UR5 / Panda chains agree with the numeric FK and Jacobians, and so do the
 generated Python and C; the time limit; the symbolic table's validation."""
 
@@ -40,9 +40,9 @@ def row(kind, a, alpha, d, theta):
     return {"type": kind, "a": a, "alpha": alpha, "d": d, "theta": theta}
 
 
-# ---------------------------------------------------------------------- the notes' examples
-def test_rpr_example_T2_0_and_T3_0_equal_the_notes():
-    """003_*: T2_0 and T3_0 of the MATLAB session (d2 is the joint variable q2)."""
+# ------------------------------------------------------------------- the textbook examples
+def test_rpr_example_T2_0_and_T3_0_equal_the_textbook():
+    """Spong-convention RPR example: T2_0 and T3_0 of its MATLAB session (d2 is the joint variable q2)."""
     d1, d2, d3 = sp.symbols("d1 d2 d3", real=True)
     f = forms_of([row("R", 0, 90, "d1", 0), row("P", 0, 0, 0, 0), row("R", 0, 0, "d3", 0)], angles="degrees")
     at = {q2: d2}
@@ -57,7 +57,7 @@ def test_rpr_example_T2_0_and_T3_0_equal_the_notes():
 
 
 def test_planar_2r_T_and_J():
-    """001_*: p = (l1 c1 + l2 c12, l1 s1 + l2 s12), phi = q1 + q2; J of the tip."""
+    """De Luca's 2R planar arm: p = (l1 c1 + l2 c12, l1 s1 + l2 s12), phi = q1 + q2; J of the tip."""
     l1, l2 = sp.symbols("l1 l2", real=True)
     f = forms_of([row("R", "l1", 0, 0, 0), row("R", "l2", 0, 0, 0)])
     T = sp.Matrix([[c(q1 + q2), -s(q1 + q2), 0, l1 * c(q1) + l2 * c(q1 + q2)],
@@ -66,13 +66,13 @@ def test_planar_2r_T_and_J():
                    [0, 0], [0, 0], [0, 0], [1, 1]])
     assert equal(f.T, T)
     assert equal(f.jacobians["local_world_aligned"], J)
-    assert f.T[0, 3] == l1 * c(q1) + l2 * c(q1 + q2)  # the sum of angles, as written in the notes
+    assert f.T[0, 3] == l1 * c(q1) + l2 * c(q1 + q2)  # the sum of angles, as De Luca writes it
     # the space Jacobian's column 2 is the screw of joint 2: (-w x r, w) with r = (l1 c1, l1 s1, 0)
     assert equal(f.jacobians["world"][:, 1], sp.Matrix([l1 * s(q1), -l1 * c(q1), 0, 0, 0, 1]))
 
 
 def test_scara_T04_and_task_vector():
-    """001_*: T_04 and r(q) = (a1 c1 + a2 c12, a1 s1 + a2 s12, d1 + q3 + d4, q1 + q2 + q4), d4 < 0."""
+    """De Luca's SCARA: T_04 and r(q) = (a1 c1 + a2 c12, a1 s1 + a2 s12, d1 + q3 + d4, q1 + q2 + q4), d4 < 0."""
     a1, a2, d1, d4 = sp.symbols("a1 a2 d1 d4", real=True)
     f = forms_of([row("R", "a1", 0, "d1", 0), row("R", "a2", 0, 0, 0), row("P", 0, 0, 0, 0),
                   row("R", 0, "pi", "d4", 0)], what=("transforms", "task"), rep="scara")

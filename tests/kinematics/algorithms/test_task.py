@@ -1,5 +1,5 @@
 """Task vectors r = (p, phi) and analytic Jacobians J_r = E(phi)^-1 J (kinematics.algorithms.task):
-central finite differences of r(q) in every representation, the notes' planar and SCARA
+central finite differences of r(q) in every representation, De Luca's planar and SCARA
 vectors, the singularities refused, and the layouts validated."""
 
 from __future__ import annotations
@@ -69,8 +69,9 @@ def test_r_is_the_pose_in_each_representation(rng):
         np.testing.assert_allclose(Rz(f) @ Ry @ Rz(p), R, atol=1e-14)
 
 
-def test_planar_and_scara_vectors_are_the_notes(rng):
-    """001_*: planar (px, py, phi = q1 + q2); SCARA (a1 c1 + a2 c12, a1 s1 + a2 s12, d1 + q3 + d4, q1 + q2 + q4)."""
+def test_planar_and_scara_vectors_are_the_textbook_ones(rng):
+    """De Luca's arms: planar (px, py, phi = q1 + q2); SCARA (a1 c1 + a2 c12, a1 s1 + a2 s12, d1 + q3 + d4,
+    q1 + q2 + q4)."""
     catalogue = default_catalogue()
     planar = catalogue.get("planar_2r")
     Q = planar.sample_configurations(10, rng) * 0.45  # |q1 + q2| < pi: no wrap

@@ -138,7 +138,8 @@ def test_single_configuration_results_are_fresh_and_thread_safe(catalogue):
 
 
 def test_planar_2r_closed_form():
-    """Notes 001_*: p = (l1 c1 + l2 c12, l1 s1 + l2 s12), heading q1 + q2; J (world-aligned) closed form."""
+    """De Luca's 2R planar arm: p = (l1 c1 + l2 c12, l1 s1 + l2 s12), heading q1 + q2; J (world-aligned)
+    closed form."""
     from pathlib import Path
 
     from kinematics import load_urdf

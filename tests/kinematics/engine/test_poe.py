@@ -1,4 +1,4 @@
-"""PoE forward kinematics and Jacobians: closed forms of the notes, finite differences, properties."""
+"""PoE forward kinematics and Jacobians: textbook closed forms, finite differences, properties."""
 
 from __future__ import annotations
 
@@ -31,9 +31,9 @@ def se3(S):
     return out
 
 
-# ---------------------------------------------------------------- closed forms (seeds)
+# ---------------------------------------------------------------- closed forms (textbook examples)
 def test_planar_2r_closed_form(rng):
-    """Notes 001_*: p_x = l1 c1 + l2 c12, p_y = l1 s1 + l2 s12, heading q1 + q2."""
+    """De Luca's 2R planar arm: p_x = l1 c1 + l2 c12, p_y = l1 s1 + l2 s12, heading q1 + q2."""
     m = model("planar_2r")
     l1, l2 = 0.7, 0.5
     Q = rng.uniform(-np.pi, np.pi, size=(50, 2))
@@ -47,7 +47,7 @@ def test_planar_2r_closed_form(rng):
 
 
 def test_planar_3r_screws_home_and_closed_form(rng):
-    """Notes 002_* Example 1: M = [I, (L1+L2+L3, 0, 0)], v2 = (0, -L1, 0), v3 = (0, -(L1+L2), 0)."""
+    """Lynch & Park, Modern Robotics, Example 4.1: M = [I, (L1+L2+L3, 0, 0)], v2 = (0, -L1, 0), v3 = (0, -(L1+L2), 0)."""
     m = model("planar_3r")
     L1, L2, L3 = 1.0, 0.8, 0.5
     poe = compile_model(m)
@@ -67,7 +67,8 @@ def test_planar_3r_screws_home_and_closed_form(rng):
 
 
 def test_spatial_3r_screws_home_and_matrix_exponential(rng):
-    """Notes 002_* Example 2: screws and M as written there; FK = expm([S1]q1) expm([S2]q2) expm([S3]q3) M."""
+    """Lynch & Park, Modern Robotics, Example 4.2: screws and M as written there;
+    FK = expm([S1]q1) expm([S2]q2) expm([S3]q3) M."""
     m = model("spatial_3r")
     L1, L2 = 0.6, 0.4
     poe = compile_model(m)

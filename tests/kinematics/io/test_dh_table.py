@@ -97,9 +97,9 @@ def test_catalogue_lists_presets_with_readable_ids(catalogue):
         assert model.leaf_links == ("tool",)
 
 
-# ------------------------------------------------------------------ closed forms of the notes
+# ------------------------------------------------------------------ textbook closed forms
 def test_planar_2r_closed_form(rng):
-    """001_*: p = (a1 c1 + a2 c12, a1 s1 + a2 s12, 0), phi = q1 + q2."""
+    """De Luca's 2R planar arm: p = (a1 c1 + a2 c12, a1 s1 + a2 s12, 0), phi = q1 + q2."""
     table = _table(DEFAULT_PRESETS_DIR / "planar_2r.yaml")
     a1, a2 = table.rows[0].a, table.rows[1].a
     Q = _random_q(table, 50, rng)
@@ -111,7 +111,7 @@ def test_planar_2r_closed_form(rng):
 
 
 def test_planar_3r_modified_closed_form(rng):
-    """002_* (Craig rows (0,0,0,q1), (l1,0,0,q2), (l2,0,0,q3)), tool l3 along x3."""
+    """Lin Shao's "Frame Attachment" example (Craig rows (0,0,0,q1), (l1,0,0,q2), (l2,0,0,q3)), tool l3 along x3."""
     table = _table(DEFAULT_PRESETS_DIR / "planar_3r.yaml")
     assert table.convention == "modified"
     l1, l2, l3 = table.rows[1].a, table.rows[2].a, table.tool[0, 3]
@@ -123,8 +123,8 @@ def test_planar_3r_modified_closed_form(rng):
     np.testing.assert_allclose(T[:, :3, 3], np.stack([x, y, 0 * x], axis=1), rtol=0, atol=EXACT)
 
 
-def test_scara_closed_form_of_001(rng):
-    """001_* step 6: T = [[c124, s124, 0, a1 c1 + a2 c12], [s124, -c124, 0, a1 s1 + a2 s12],
+def test_scara_closed_form_of_de_luca(rng):
+    """De Luca's SCARA, step 6: T = [[c124, s124, 0, a1 c1 + a2 c12], [s124, -c124, 0, a1 s1 + a2 s12],
     [0, 0, -1, d1 + q3 + d4]]."""
     table = _table(DEFAULT_PRESETS_DIR / "scara.yaml")
     assert [r.type for r in table.rows] == ["revolute", "revolute", "prismatic", "revolute"]
@@ -143,8 +143,9 @@ def test_scara_closed_form_of_001(rng):
     np.testing.assert_allclose(T, expected, rtol=0, atol=EXACT)
 
 
-def test_rpr_example_T3_0_of_003(rng):
-    """003_*: T3_0 = [[c1 c3, -c1 s3, s1, s1 (d2 + d3)], [s1 c3, -s1 s3, -c1, -c1 (d2 + d3)], [s3, c3, 0, d1]]."""
+def test_rpr_example_T3_0_of_spong_example(rng):
+    """Spong-convention RPR example: T3_0 = [[c1 c3, -c1 s3, s1, s1 (d2 + d3)], [s1 c3, -s1 s3, -c1, -c1 (d2 + d3)],
+    [s3, c3, 0, d1]]."""
     table = _table(DEFAULT_PRESETS_DIR / "rpr_example.yaml")
     d1, d3 = table.rows[0].d, table.rows[2].d
     Q = _random_q(table, 50, rng)
@@ -188,9 +189,9 @@ def _rot(axis, angle):
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-def test_rhino_matches_the_product_of_000(rng):
-    """000_*: h1 = y (P), h2 = z, h3 = h4 = h5 = x, h6 = y; p01 = l1 y, p23 = l2 z, p34 = l3 y,
-    p45 = l4 y, p56 = l6 y; R06 = rot(h2,q2) ... rot(h6,q6), p06 as in the notes."""
+def test_rhino_matches_wens_product_of_exponentials(rng):
+    """Wen's Rhino arm: h1 = y (P), h2 = z, h3 = h4 = h5 = x, h6 = y; p01 = l1 y, p23 = l2 z, p34 = l3 y,
+    p45 = l4 y, p56 = l6 y; R06 = rot(h2,q2) ... rot(h6,q6), p06 as in Wen's notes."""
     table = _table(DEFAULT_PRESETS_DIR / "rhino.yaml")
     l1, l2, l3, l4, l6 = 0.1, 0.26, 0.23, 0.23, 0.12  # the values the preset's comment states
     x, y, z = np.eye(3)

@@ -98,7 +98,7 @@ def test_canonical_dict_reads_back_to_the_same_urdf():
 @pytest.mark.parametrize("description, message", [
     ({"joints": [{"S": [0, 0, 1, 0, 0, 0]}]}, "M: missing"),
     ({"M": [[0, 0, 1, 0.6], [0, 1, 0, 0], [-1, 0, 1, -0.4], [0, 0, 0, 1]], "joints": [{"S": [0, 0, 1, 0, 0, 0]}]},
-     "M: not a rigid transform"),  # the notes' typo
+     "M: not a rigid transform"),  # the handout's typo (M[2][2] = 1)
     ({"M": MR_M, "joints": [{"S": [0, 0, 2, 0, 0, 0]}]}, r"joints\[0\].S: the angular part w must be a unit"),
     ({"M": MR_M, "joints": [{"S": [0, 0, 1, 0, 0, 1]}]}, r"joints\[0\].S: pitch"),
     ({"M": MR_M, "joints": [{"S": [0, 0, 0, 0, 0, 2]}]}, r"joints\[0\].S: a prismatic joint's screw"),
@@ -129,7 +129,8 @@ X, Y, Z = np.eye(3)
 
 
 def test_wen_scara_equals_the_lecture(rng):
-    """000_*: R_04 = R_01 R_12 R_23, p_04 = R_01 p_12 + R_01 R_12 p_23 + R_01 R_12 R_23 (p_34 + q_4 h_4)."""
+    """Wen's SCARA: R_04 = R_01 R_12 R_23,
+    p_04 = R_01 p_12 + R_01 R_12 p_23 + R_01 R_12 R_23 (p_34 + q_4 h_4)."""
     l1, l2, l3 = 0.4, 0.3, 0.1
     model = model_from_axes(load_axes(DESCRIPTIONS / "wen_scara.yaml"))
     Q = rng.uniform(-2, 2, (30, 4))
@@ -142,7 +143,8 @@ def test_wen_scara_equals_the_lecture(rng):
 
 
 def test_wen_rhino_equals_the_lecture(rng):
-    """000_*: R_06 = rot(h2, q2) ... rot(h6, q6); p_06 = (p_01 + q_1 h_1) + p_12 + R_12 p_23 + ... + R_15 p_56."""
+    """Wen's Rhino arm: R_06 = rot(h2, q2) ... rot(h6, q6);
+    p_06 = (p_01 + q_1 h_1) + p_12 + R_12 p_23 + ... + R_15 p_56."""
     l1, l2, l3, l4, l6 = 0.1, 0.26, 0.23, 0.23, 0.12
     model = model_from_axes(load_axes(DESCRIPTIONS / "wen_rhino.yaml"))
     Q = rng.uniform(-0.4, 0.4, (30, 6))
