@@ -57,7 +57,7 @@ RTB_TOL = 1e-13
 #: PseudoInverseIK: iterations and retries (run side by side per target, batched)
 PTK_MAX_ITERATIONS = 100
 PTK_RETRIES = 50
-#: solver names in the notes
+#: solver names as the tables print them
 DISPLAY = {"ptk": "pytorch-kinematics"}
 
 

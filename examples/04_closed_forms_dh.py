@@ -12,7 +12,7 @@ import sympy as sp
 import kinematics
 from kinematics import api
 
-# the SCARA (RRPR) of the course notes, standard DH, lengths left as symbols (d4 < 0)
+# De Luca's SCARA (RRPR), standard DH, lengths left as symbols (d4 < 0)
 TABLE = {"convention": "standard", "joints": [
     {"type": "R", "a": "a1", "alpha": 0, "d": "d1", "theta": 0},
     {"type": "R", "a": "a2", "alpha": 0, "d": 0, "theta": 0},
@@ -30,7 +30,7 @@ def main() -> None:
         print("   ", row)
     print("r = (px, py, pz, alpha_z):", list(forms.task.r))
     print("J_r = dr/dq:", forms.task.J_r.tolist())
-    latex = api.symbolic_dh(TABLE, fmt="latex").output["T"]  # the notes' c_{12}, s_{124}
+    latex = api.symbolic_dh(TABLE, fmt="latex").output["T"]  # the textbooks' c_{12}, s_{124}
     print("T in LaTeX:", latex[:72], "...")
 
     # the bundled `scara` model is this table with a1 = 0.325, a2 = 0.275, d1 = 0.4, d4 = -0.1

@@ -54,7 +54,7 @@ async def symbolic(model_id: ModelId, request: Request, registry: RegistryDep, s
     (`local_world_aligned`, `world`; 6 x n, linear rows first) and task vectors `r(q)`, `J_r = dr/dq`.
 
     Joint variables `q1..qn` follow the chain (`joint_variables` names their joints). For a DH
-    preset or DH-built model the factors are the table's DH matrices. Formats: `latex` (the notes'
+    preset or DH-built model the factors are the table's DH matrices. Formats: `latex` (the textbooks'
     `c_{12}`, `s_{1}`), `text` (strings `sympy.sympify` reads), `python` (a numpy module, batched),
     `c` (C99 functions such as `void fk(const double *q, double *T)`).
     """

@@ -107,7 +107,7 @@ SYMBOLIC_EXAMPLES = {
     "c_code": {"summary": "UR5: C functions of T and the Jacobians",
                "value": {"tip": "tool0", "what": ["transforms", "jacobian"], "format": "c", "prefix": "ur5_"}},
 }
-SYMBOLIC_DH_EXAMPLES = {"scara_symbolic": {"summary": "the SCARA of the notes, symbolic lengths (d4 < 0)", "value": {
+SYMBOLIC_DH_EXAMPLES = {"scara_symbolic": {"summary": "De Luca's SCARA, symbolic lengths (d4 < 0)", "value": {
     "what": ["transforms", "task"], "representation": "scara", "table": {"joints": [
         {"type": "R", "a": "a1", "alpha": 0, "d": "d1", "theta": 0},
         {"type": "R", "a": "a2", "alpha": 0, "d": 0, "theta": 0},

@@ -52,7 +52,7 @@ def test_closed_form_panel_typesets_the_2r_arm(server, browser):
     katex = browser.find_elements(By.CSS_SELECTOR, "#cf-output .katex")
     assert len(katex) == cf["katex"] >= 1 + 2 + 2  # T, A_1, A_2, two Jacobians (and base/tool when not identity)
     assert browser.find_elements(By.CSS_SELECTOR, "#cf-output .katex-html")  # typeset, not the raw source
-    # KaTeX's MathML copy carries the notes' notation: c_12 = cos(q1 + q2)
+    # KaTeX's MathML copy carries the textbooks' notation: c_12 = cos(q1 + q2)
     mathml = browser.execute_script("return document.querySelector('#cf-output .katex-mathml').textContent")
     assert "c" in mathml and "12" in mathml
     body = httpx.post(f"{server}/models/planar_2r/symbolic", json={"tip": "tool", "format": "latex"}).json()

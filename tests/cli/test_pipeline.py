@@ -145,7 +145,7 @@ def test_fk_jsonl_lists_and_maps_round_trip(tmp_path, ur5, Q, capsys):
 
 
 def test_fk_urdf_file_closed_form_and_chunking(tmp_path, capsys):
-    """2R planar arm of the notes: tool at (l1 c1 + l2 c12, l1 s1 + l2 s12, 0), chunk size 3."""
+    """De Luca's 2R planar arm: tool at (l1 c1 + l2 c12, l1 s1 + l2 s12, 0), chunk size 3."""
     rng = np.random.default_rng(3)
     Q2 = rng.uniform(-3, 3, size=(10, 2))
     src, out = tmp_path / "q.npy", tmp_path / "p.csv"

@@ -1,4 +1,4 @@
-"""The formats of closed forms: LaTeX in the notes' compact notation, text sympy reads back,
+"""The formats of closed forms: LaTeX in the textbooks' compact notation, text sympy reads back,
 a numpy-only Python module and a C99 translation unit (:func:`render`)."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ FORMATS = ("latex", "python", "c", "text")
 
 
 def _compact_names(chain: SymbolicChain, expr_atoms) -> dict[sp.Expr, sp.Symbol]:
-    """``cos(q1 + q2 + q4) -> c_{124}``, ``sin(q1) -> s_{1}`` (the notes' notation), for
+    """``cos(q1 + q2 + q4) -> c_{124}``, ``sin(q1) -> s_{1}`` (the textbooks' notation), for
     sines and cosines of sums of joint variables (``q`` style only)."""
     index = {v: i + 1 for i, v in enumerate(chain.variables)}
     if not all(v.name == f"q{i}" for v, i in index.items()):
@@ -43,7 +43,7 @@ def _latex_symbol_names(chain: SymbolicChain) -> dict[sp.Symbol, str]:
 
 
 def latex_matrix(M: sp.Matrix, chain: SymbolicChain) -> str:
-    """LaTeX of a matrix or vector in the notes' compact notation (``c_{12}``, ``s_{1}``)."""
+    """LaTeX of a matrix or vector in the textbooks' compact notation (``c_{12}``, ``s_{1}``)."""
     compact = _compact_names(chain, M.atoms(sp.sin, sp.cos))
     return sp.latex(M.xreplace(compact), mat_str="bmatrix", mat_delim="",
                     symbol_names=_latex_symbol_names(chain))
