@@ -246,8 +246,11 @@ def general_6r_candidates(chain: Chain, T_root: np.ndarray) -> tuple[np.ndarray,
     T_root = np.asarray(T_root, dtype=float).reshape(-1, 4, 4)
     m = _model(chain)
     G = np.einsum("nij,jk->nik", T_root, np.linalg.inv(chain.M))
-    sols = _solve(m, G) if len(T_root) else []
-    sols = [s if s is not None else _shifted(chain, G[n]) for n, s in enumerate(sols)]
+    # a non-finite or absurd target has no solution (and would stop the eigen-solvers): no candidate
+    fine = np.flatnonzero(np.all(np.isfinite(G) & (np.abs(G) < 1e12), axis=(1, 2)))
+    sols: list = [np.zeros((0, 6)) for _ in range(len(T_root))]
+    for n, s in zip(fine, _solve(m, G[fine]) if fine.size else []):
+        sols[n] = s if s is not None else _shifted(chain, G[n])
     K = max(16, max((len(s) for s in sols if s is not None), default=0))
     Q = np.zeros((len(T_root), K, 6))
     count = np.zeros(len(T_root), dtype=np.int64)

@@ -152,6 +152,16 @@ def test_general_6r_unreachable_target_has_no_solutions():
     assert sol.count[0] == 0
 
 
+def test_general_6r_non_finite_targets_have_no_solutions_and_do_not_stop_the_batch():
+    model = _random_6r(101)
+    link = model.leaf_links[0]
+    Q, T = _targets(model, link, 3, seed=2)
+    T[1, 0, 3], T[2, 1, 3] = np.nan, 1e300
+    sol = all_solutions(model, link, T, limits="ignore")
+    assert sol.count[0] >= 1 and sol.count[1] == sol.count[2] == 0
+    assert _contains(sol.q[0, :sol.count[0]], Q[0])
+
+
 @pytest.fixture(scope="module")
 def catalogue():
     return default_catalogue()
