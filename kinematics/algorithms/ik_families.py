@@ -187,9 +187,11 @@ class Family:
 
     Chains of fewer than six joints are ``planar`` (every axis parallel: 2R, 3R, SCARA; in closed
     form for two or three revolute joints and at most one prismatic), ``rpr`` (closed form) or
-    ``short_chain`` (the multistart search); a 6R chain with none of the families above is
-    ``general_6r``, solved by the 16-degree elimination of :mod:`kinematics.algorithms.ik_general`
-    (``general``: a 6-joint chain with a prismatic joint and no family, the multistart search)."""
+    ``short_chain`` (the multistart search); a slide followed by three parallel axes between two
+    others (Wen's Rhino arm) is ``prismatic_three_parallel`` (closed form, :mod:`.ik_general`); a 6R
+    chain with none of the families above is ``general_6r``, solved by the 16-degree elimination of
+    :mod:`kinematics.algorithms.ik_general` (``general``: a 6-joint chain with a prismatic joint and
+    no family, the multistart search)."""
 
     name: str
     subproblems: tuple[int, ...]
@@ -307,6 +309,11 @@ def detect(ch: Chain) -> Family:
                           ch if kernel else None, kernel=kernel)
         return Family("short_chain", (), False, None, ch)
     if ch.n == 6:
+        # a slide, then three parallel axes between two others (Wen's Rhino arm): closed form
+        for c, rev in ((ch, False), (ch.reversed(), True)):
+            if ik_general.prismatic_parallel(c):
+                return Family("prismatic_three_parallel" + ("_reversed" if rev else ""), (2, 1, 3, 1), True, 4, ch,
+                              c, reversed=rev, kernel="prismatic_three_parallel")
         # every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem), on the
         # chain or, where its geometry makes the elimination degenerate, on the reversed chain
         if ik_general.usable(ch):

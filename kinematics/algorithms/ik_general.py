@@ -47,6 +47,11 @@ SCARA) or the link's origin (2R) is placed by two rotations in the plane (the la
 two solutions), the last revolute angle gives the orientation. RPR (revolute, prismatic along
 the third axis, revolute): the orientation gives ``q₁`` (subproblem 1 on ``h₃``) and ``q₃``, the
 position ``q₂``: one solution.
+
+**A slide and three parallel axes** (``prismatic_three_parallel``, Wen's Rhino arm: joint 1
+prismatic, axes 3 ∥ 4 ∥ 5): subproblems 2 and 1 for the orientation, a linear equation for the
+slide, subproblems 3 and 1 in the plane of the parallel axes: up to four solutions
+(:func:`_prismatic_three_parallel`).
 """
 
 from __future__ import annotations
@@ -55,6 +60,8 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+
+from ..engine import subproblems
 
 #: a :class:`kinematics.algorithms.ik_families.Chain` (its ``n``, ``h``, ``r``, ``revolute``, ``M``,
 #: ``mimic``); not imported, since the family detection imports this module
@@ -354,7 +361,7 @@ def usable(chain: Chain, trials: int = 3, shifts: bool = False) -> bool:
 
 # ---------------------------------------------------------------------- short chains
 #: the kernels of this module (``Family.kernel``); those that also solve a position alone
-KERNELS = ("general_6r", "planar_2r", "planar_3r", "rpr")
+KERNELS = ("general_6r", "planar_2r", "planar_3r", "rpr", "prismatic_three_parallel")
 POSITION_KERNELS = ("planar_2r",)
 
 
@@ -439,17 +446,77 @@ def _rpr(ch: Chain, T: np.ndarray) -> list[np.ndarray]:
     return [np.array([q1, q2, q3])]
 
 
+def prismatic_parallel(ch: Chain) -> bool:
+    """True for a ``prismatic_three_parallel`` chain (Wen's Rhino arm): joint 1 prismatic, joints 2-6
+    revolute, axes 3 ∥ 4 ∥ 5, axes 2 and 6 not parallel to them, and the slide's height along axis 3
+    (after axis 2 turns it) not zero for every q2 (else the slide would not be fixed by the pose)."""
+    if ch.n != 6 or ch.mimic or ch.revolute.tolist() != [False, True, True, True, True, True]:
+        return False
+    h = ch.h
+    if any(np.linalg.norm(np.cross(h[2], h[j])) > 1e-9 for j in (3, 4)):
+        return False
+    if min(np.linalg.norm(np.cross(h[2], h[j])) for j in (1, 5)) < 1e-3:
+        return False
+    a, k, x = h[0], h[1], h[2]  # x · R(k, −q2) a = A cos q2 + B sin q2 + C
+    A, B, C = x @ a - (k @ a) * (k @ x), -(x @ np.cross(k, a)), (k @ a) * (k @ x)
+    return max(abs(A), abs(B), abs(C)) > 1e-6
+
+
+def _prismatic_three_parallel(ch: Chain, T: np.ndarray) -> list[np.ndarray] | None:
+    """The candidates (up to 4) of a ``prismatic_three_parallel`` chain for one pose T (4, 4); None where
+    the slide is not fixed by the pose (the caller searches there).
+
+    With ``g = T M⁻¹`` and axes 3, 4, 5 along ``h₃`` (joint j turning by ``φ_j = σ_j q_j`` about it):
+    the orientation ``R₂(q₂) R(h₃, φ₃ + φ₄ + φ₅) R₆(q₆) = R_g`` gives ``−q₂`` and ``θ = φ₃ + φ₄ + φ₅``
+    by subproblem 2 on ``h₆`` and ``q₆`` by subproblem 1; rotations about ``h₃`` keep the height along
+    it, so for the point ``c`` of axis 6, ``h₃·e₂⁻¹(g c − d₁ h₁) = h₃·c`` is linear in the slide
+    ``d₁``; then ``y = e₃e₄(r₅) = e₂⁻¹(g c − d₁ h₁) − R(h₃, θ)(c − r₅)`` gives ``φ₄`` by subproblem 3
+    (its distance to ``r₃``), ``φ₃`` by subproblem 1, and ``φ₅ = θ − φ₃ − φ₄``."""
+    G = T @ np.linalg.inv(ch.M)
+    h, r = ch.h, ch.r
+    x = h[2]
+    sigma = np.sign(h[2:5] @ x)
+    c = r[5]
+    gc = G[:3, :3] @ c + G[:3, 3]
+    t1, t2, n2, flag = subproblems.sp2(G[:3, :3] @ h[5], h[5], h[1], x)
+    if flag == subproblems.DEGENERATE:
+        return None
+    out = []
+    for b in range(n2):
+        q2, theta = -t1[b], t2[b]
+        R2t = _rot(h[1], np.array([-q2]))[0]
+        R3 = _rot(x, np.array([theta]))[0]
+        q6 = _angle_about(h[5], R3.T @ R2t @ G[:3, :3])
+        den = x @ (R2t @ h[0])
+        if abs(den) < 1e-9:
+            return None
+        d1 = (x @ r[1] + x @ (R2t @ (gc - r[1])) - x @ c) / den
+        xp = r[1] + R2t @ (gc - d1 * h[0] - r[1])
+        y = xp - R3 @ (c - r[4])
+        t4, n4, _ = subproblems.sp3(r[4] - r[3], r[2] - r[3], x, float(np.linalg.norm(y - r[2])))
+        for k in range(n4):
+            e4 = r[3] + _rot(x, np.array([t4[k]]))[0] @ (r[4] - r[3])
+            phi3, _ = subproblems.sp1(e4 - r[2], y - r[2], x)
+            phi = np.array([phi3, t4[k], theta - phi3 - t4[k]])
+            out.append(np.concatenate([[d1, q2], sigma * phi, [q6]]))
+    return out
+
+
 def candidates(kernel: str, chain: Chain, T_root: np.ndarray, position_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(N, K, n) candidate values of the chain's joints (chain order) and counts (N,) for targets
-    T_root (N, 4, 4, root frame) by this module's ``kernel`` (one of :data:`KERNELS`)."""
+    """(N, K, n) candidate values of the chain's joints (chain order) and counts (N,; −1 where the
+    kernel does not apply to that target) for targets T_root (N, 4, 4, root frame) by this module's
+    ``kernel`` (one of :data:`KERNELS`)."""
     if kernel == "general_6r":
         return general_6r_candidates(chain, T_root)
     T_root = np.asarray(T_root, dtype=float).reshape(-1, 4, 4)
-    sols = [_rpr(chain, T) if kernel == "rpr" else _planar(chain, T, position_only) for T in T_root]
-    Q = np.zeros((len(T_root), 2, chain.n))
+    if kernel == "prismatic_three_parallel":
+        sols = [_prismatic_three_parallel(chain, T) if np.all(np.isfinite(T)) else [] for T in T_root]
+    else:
+        sols = [_rpr(chain, T) if kernel == "rpr" else _planar(chain, T, position_only) for T in T_root]
+    Q = np.zeros((len(T_root), max([2] + [len(s) for s in sols if s]), chain.n))
     count = np.zeros(len(T_root), dtype=np.int64)
     for n, s in enumerate(sols):
-        count[n] = len(s)
+        count[n] = -1 if s is None else len(s)
         if s:
             Q[n, :len(s)] = np.array(s)
     return Q, count

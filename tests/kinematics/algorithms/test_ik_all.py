@@ -164,6 +164,32 @@ def test_a_calibrated_ur5_gets_every_solution(catalogue):
                 assert _contains(sol, n, q, cols)
 
 
+def test_wens_rhino_arm_in_closed_form(catalogue):
+    """A slide, then axes 3 ∥ 4 ∥ 5 between two others: four solutions of a generic pose by subproblems
+    2, 1, a linear equation for the slide, 3 and 1; the same as a dense search; where the pose does not
+    fix the slide (q2 = 0), representatives flagged singular."""
+    model = catalogue.get("rhino")
+    fam = detect(reduce_chain(model, "tool"))
+    assert (fam.name, fam.closed_form, fam.max_solutions) == ("prismatic_three_parallel", True, 4)
+    Q, T = _targets(model, "tool", 40, seed=4)
+    sol = all_solutions(model, "tool", T, limits="ignore")
+    assert sol.method == "analytic" and (sol.count == 4).all()
+    cols = np.arange(6)
+    for n in range(len(Q)):
+        assert _contains(sol, n, Q[n], cols)
+    dense = all_solutions(model, "tool", T[:4], limits="ignore", method="numeric", search_seeds=2048,
+                          position_tolerance=1e-9, rotation_tolerance=1e-9)
+    for n in range(4):
+        assert dense.count[n] == 4
+        for q in dense.q[n, :dense.count[n]]:
+            assert _contains(sol, n, q, cols)
+    _pinocchio_exact(model, "tool", sol, T[:5])
+    q = Q[0].copy()
+    q[1] = 0.0
+    one = all_solutions(model, "tool", compile_model(model).fk(q[None], ["tool"])[:, 0], limits="ignore")
+    assert one.count[0] >= 1 and one.singular[0, :one.count[0]].all()
+
+
 def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catalogue):
     """Targets where the polish of the ideal chain's closed form finds fewer solutions than the ideal
     chain has: the elimination of the real chain (or the search, where it is not trusted) lists every
