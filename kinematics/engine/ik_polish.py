@@ -45,8 +45,9 @@ _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy", fast
 CONVERGED = 1e-28
 #: a squared pose error below this whose next step is refused is at the rounding floor (Newton stops)
 FLOOR = 1e-26
-#: targets whose candidates share one pass of the lane stage
-LANE_TARGETS = 32
+#: targets whose candidates share one pass of the lane stage, at most, and candidates (lanes) in one pass
+#: at most (a search's hundreds of seeds: one target a pass)
+LANE_TARGETS, LANE_CANDIDATES = 32, 256
 #: the lane stage's rotation error (atan of sin/cos by its series) where sin θ is below this and cos θ > 0
 LANE_SMALL_ANGLE = 1e-4
 
@@ -466,10 +467,11 @@ def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, X, F, S,
 def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table, D, steps, lam0, damped, middle, tight,
            final, reach, ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
     """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs.
-    ``table``, ``D``: the real chain in :func:`lane_table`'s form. Without ``damped``, the candidates
-    of :data:`LANE_TARGETS` targets at a time first get :func:`lane_stage`; a candidate it finds on its
-    solution to ``tight`` (most closed-form candidates) skips the scalar measure, and its singular
-    flag comes from the lane bound where that decides. ``damped`` (a search from seeds): LM from
+    ``table``, ``D``: the real chain in :func:`lane_table`'s form. The candidates of up to
+    :data:`LANE_TARGETS` targets (:data:`LANE_CANDIDATES` candidates) at a time first get
+    :func:`lane_stage`, which maps and wraps them; a candidate it finds on its solution to ``tight``
+    (most closed-form candidates) skips the scalar measure, and its singular flag comes from the
+    lane bound where that decides. ``damped`` (a search from seeds): LM from
     λ = ``lam0`` with steps of at most 0.5 per joint, then ``middle`` undamped steps for a row that
     came within 1e-2 of a solution. A candidate whose first error (m + rad) is above ``reach`` is
     dropped unpolished."""
@@ -490,16 +492,14 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table,
     sn, cs = np.empty(n), np.empty(n)
     x = np.empty(n)
     kept = np.empty((C, n))
-    lanes = not damped
-    L = LANE_TARGETS * cand.shape[1] if lanes else 1
-    w = L + 8  # rows of the lane arrays not 4 KiB apart
+    group = max(1, min(LANE_TARGETS, LANE_CANDIDATES // max(1, cand.shape[1])))
+    w = group * cand.shape[1] + 8  # rows of the lane arrays not 4 KiB apart
     X, FL, S = np.empty((n, w)), np.empty((n, 12, w)), np.empty((2, n, w))
     TT, E, JL, Gm = np.empty((12, w)), np.empty((12, w)), np.empty((6 * n, w)), np.empty((21, w))
     lp, lq, lb = np.empty(w), np.empty(w), np.empty(w)
-    for g0 in range(a, b_, LANE_TARGETS):
-        g1 = min(g0 + LANE_TARGETS, b_)
-        if lanes:
-            lane_stage(cand, ccount, reversed_, targets, rev, table, D, g0, g1, X, FL, S, TT, E, JL, Gm, lp, lq, lb)
+    for g0 in range(a, b_, group):
+        g1 = min(g0 + group, b_)
+        lane_stage(cand, ccount, reversed_, targets, rev, table, D, g0, g1, X, FL, S, TT, E, JL, Gm, lp, lq, lb)
         lane = 0
         for t in range(g0, g1):
             T = targets[t]
@@ -509,23 +509,19 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table,
                 lane += 1
                 if k >= C:
                     continue
-                quick = lanes and lp[l] <= tight and lq[l] <= tight
-                if lanes and (lp[l] > reach or lp[l] + lq[l] > reach):  # (NaN: the scalar measure decides)
+                quick = lp[l] <= tight and lq[l] <= tight
+                if lp[l] > reach or lp[l] + lq[l] > reach:  # (NaN: the scalar measure decides)
+                    continue
+                finite = True
+                for j in range(n):  # mapped and wrapped by the lane stage
+                    x[j] = X[j, l]
+                    if not math.isfinite(x[j]):
+                        finite = False
+                if not finite:
                     continue
                 if quick:  # on its solution already: the lane's values
-                    for j in range(n):
-                        x[j] = X[j, l]
                     p, q = lp[l], lq[l]
                 else:
-                    finite = True
-                    for j in range(n):
-                        v = -cand[t, c, n - 1 - j] if reversed_ else cand[t, c, j]
-                        x[j] = v
-                        if not math.isfinite(v):
-                            finite = False
-                    if not finite:
-                        continue
-                    wrap(x, rev)
                     p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
                     if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
                         continue
