@@ -384,13 +384,10 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
     more = [Qk[i, :found[i]] for i in range(len(targets))]
     # trusted where it did not degenerate and found again every solution the closed form's polish found
     # (where it misses one of those, its roots are not to be trusted there: the search joins in)
-    cols = chain.columns
+    cols, rev = np.ascontiguousarray(chain.columns, dtype=np.intp), np.ascontiguousarray(chain.revolute)
     for i, n in enumerate(targets):
-        known = rows[owner == n][:, cols]
-        mine = more[i][:, cols]
-        proven[i] = counts[i] >= 0 and all(
-            len(mine) and np.abs(np.mod(mine - q + np.pi, 2 * np.pi) - np.pi).max(axis=1).min() <= DUPLICATE
-            for q in known)
+        proven[i] = counts[i] >= 0 and all(any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])
+                                           for q in rows[owner == n])
     return (*_merge(chain, len(T_root), rows, owner, targets, more), proven)
 
 
