@@ -254,7 +254,7 @@ def _try_forward(ch: Chain, angle: float, distance: float) -> Family | None:
         if position == ik_fast.POS_SEARCH:
             # a general 3R positioning arm: the 16-degree elimination of the whole chain (every solution,
             # on the chain itself, so a near wrist needs no projection), else the bracketing search over q1
-            if ik_general.usable(ch) or ik_general.usable(ch, shifts=True):
+            if ik_general.applies(ch):
                 return Family("spherical_wrist_general", (1,), True, 8, ch, ch, deviation=max(devs),
                               kernel="general_6r", centre=c)
             ideal = replace(ch, h=h, r=r)

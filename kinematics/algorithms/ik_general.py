@@ -113,11 +113,16 @@ _HALF2 = np.einsum("ai,bj->abij", _HALF, _HALF).reshape(9, 9)
 
 
 class _Model6R:
-    """The target-independent part of the elimination for one chain: the left side P(θ3) = P0 + c3 Pc + s3 Ps."""
+    """The target-independent part of the elimination for one chain: the left side P(θ3) = P0 + c3 Pc + s3 Ps;
+    and what was learnt of the chain: ``applies`` (:func:`applies`, None until asked) and
+    ``shift_hint``, the cyclic shift of the loop that last gave a target a non-degenerate elimination
+    (:func:`_shifted` tries it first: an order, not a result)."""
 
     def __init__(self, chain: Chain):
         h, r = chain.h, chain.r
         self.h, self.r, self.M = h, r, chain.M
+        self.applies: bool | None = None
+        self.shift_hint = 1
         self.fit_residual = 0.0
         K = len(_GRID)
         blocks = []
@@ -278,7 +283,8 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
     forwards and reversed (two consecutive axes meeting, a Jaco-like wrist) is generic in some shift,
     because the shifted chain's link from joint 6 to joint 1 is the target's."""
     R, p = G[:3, :3], G[:3, 3]
-    hint = _SHIFT_HINT.get(id(chain), 1)
+    own = _model(chain)
+    hint = own.shift_hint
     for k in [hint] + [k for k in range(1, 6) if k != hint]:  # the shift that worked last first
         order = list(range(k, 6)) + list(range(k))
         h = np.concatenate([chain.h[k:], chain.h[:k] @ R])
@@ -290,9 +296,7 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
             continue
         sols = _solve(m, G[None])[0]
         if sols is not None:
-            if len(_SHIFT_HINT) > 32:
-                _SHIFT_HINT.clear()
-            _SHIFT_HINT[id(chain)] = k
+            own.shift_hint = k
             q = np.empty_like(sols)
             q[:, order] = sols
             return q
@@ -302,20 +306,10 @@ def _shifted(chain: Chain, G: np.ndarray) -> np.ndarray | None:
 def applies(chain: Chain) -> bool:
     """:func:`usable` on the chain itself or on the cyclic shifts of its loop (kept per chain): the
     elimination gives every solution of its targets (a target where it still degenerates: count −1)."""
-    hit = _APPLIES.get(id(chain))
-    if hit is not None and hit[0] is chain:
-        return hit[1]
-    ok = usable(chain) or usable(chain, shifts=True)
-    if len(_APPLIES) > 32:
-        _APPLIES.clear()
-    _APPLIES[id(chain)] = (chain, ok)
-    return ok
-
-
-_APPLIES: dict[int, tuple[Chain, bool]] = {}
-
-#: the shift of the loop that last gave a chain (by id) a non-degenerate elimination (an order, not a result)
-_SHIFT_HINT: dict[int, int] = {}
+    m = _model(chain)
+    if m.applies is None:
+        m.applies = usable(chain) or usable(chain, shifts=True)
+    return m.applies
 
 
 _CACHE: dict[int, tuple[Chain, _Model6R]] = {}
