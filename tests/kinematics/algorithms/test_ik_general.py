@@ -93,20 +93,30 @@ def test_general_6r_raw_candidates_are_near_exact_and_include_the_generating_con
         assert _distance(cand[n, :count[n]], Q[n]).min() < 1e-6
 
 
+#: a Jaco-like arm (standard DH alpha, a, d): axes 1, 2 meet, 2 ∥ 3, axes 4, 5, 6 each meeting the
+#: next at 60° with no common point
+JACO_LIKE = [(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502),
+             (1.047, 0, -0.0858), (np.pi, 0, -0.2116)]
+
+
+def _revolute_table(name, table):
+    """A 6R model from standard DH rows (alpha, a, d), every joint within ±3.1 rad."""
+    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
+    return model_from_table(table_from_dict({"name": name, "convention": "standard", "joints": rows}))
+
+
 @pytest.mark.parametrize("table, family, reversed_, method", [
     # axes 1 and 2 meet (a1 = 0): the 8 products of q1, q2 are dependent; the reversed chain's are not
     ([(1.2, 0.0, 0.3), (0.4, 0.35, 0.1), (1.0, 0.2, 0.0), (0.8, 0.0, 0.25), (1.3, 0.1, 0.1), (0.5, 0.15, 0.1)],
      "general_6r", True, "analytic"),
-    # a Jaco-like arm (axes 1, 2 meet, 2 ∥ 3, axes 4, 5, 6 each meeting the next): degenerate both ways,
-    # left to the multistart search
-    ([(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502), (1.047, 0, -0.0858),
-      (np.pi, 0, -0.2116)], "general_6r", False, "analytic"),
+    # the Jaco-like arm: degenerate both ways, solved on cyclic shifts of the loop
+    (JACO_LIKE, "general_6r", False, "analytic"),
 ])
-def test_a_6r_of_special_geometry_reversed_or_left_to_the_search(table, family, reversed_, method):
+def test_a_6r_of_special_geometry_reversed_or_on_shifts_of_the_loop(table, family, reversed_, method):
     """Never a silent empty answer: where the elimination degenerates on the chain it runs on the
-    reversed chain, and where it degenerates both ways the chain is 'general' (the search)."""
-    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
-    model = model_from_table(table_from_dict({"name": "special", "convention": "standard", "joints": rows}))
+    reversed chain, and where it degenerates both ways on cyclic shifts of the loop; the same
+    solutions as a dense search."""
+    model = _revolute_table("special", table)
     link = model.leaf_links[0]
     fam = detect(reduce_chain(model, link))
     assert (fam.name, fam.reversed) == (family, reversed_)
@@ -125,10 +135,7 @@ def test_a_6r_of_special_geometry_reversed_or_left_to_the_search(table, family, 
 def test_a_jaco_like_arm_is_solved_on_cyclic_shifts_of_the_loop():
     """Degenerate forwards and reversed, the elimination runs per target on a shift of the loop: no
     target is left to the search, and every generating configuration is a candidate."""
-    table = [(np.pi / 2, 0, 0.2755), (np.pi, 0.41, 0), (np.pi / 2, 0, -0.0098), (1.047, 0, -0.2502),
-             (1.047, 0, -0.0858), (np.pi, 0, -0.2116)]
-    rows = [{"type": "revolute", "alpha": al, "a": a, "d": d, "theta": 0.0, "limits": [-3.1, 3.1]} for al, a, d in table]
-    model = model_from_table(table_from_dict({"name": "jaco_like", "convention": "standard", "joints": rows}))
+    model = _revolute_table("jaco_like", JACO_LIKE)
     link = model.leaf_links[0]
     chain = reduce_chain(model, link)
     assert not ik_general.usable(chain) and not ik_general.usable(chain.reversed())
