@@ -8,8 +8,9 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
 2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
    allocation-free form of :mod:`kinematics.engine.ik_closed`,
    on the *ideal* chain for a robot near a family, e.g. a calibrated UR), the kernels of
-   :mod:`kinematics.algorithms.ik_general` (a general 6R by the 16-degree elimination, the planar
-   and RPR short chains in closed form), or -- for a chain with no closed form (``method:
+   :mod:`kinematics.algorithms.ik_general` (a general 6R, a spherical wrist on a general arm, by the
+   16-degree elimination; the planar and RPR short chains and Wen's Rhino arm in closed form), or --
+   for a chain with no closed form (``method:
    "numeric"``, a 6-joint chain with a prismatic joint and no family, other short chains) -- damped Newton
    from ``SEARCH_SEEDS`` deterministic seeds spread over the joint space (a multistart search: it
    finds what its seeds reach, it does not prove that nothing is missed);
@@ -279,7 +280,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     if position_only and chain.n > 3:
         raise KinematicsError(f"mode: 'position' with solutions 'all': the chain to {link} has {chain.n} free joints, "
                               "so a position alone has infinitely many solutions; give a pose, or lock joints")
-    # a family's compiled kernel: its closed form, or the bracketing search of a spherical wrist on a general arm
+    # a family's kernel: its closed form, the elimination, or (the fallback of a spherical wrist on a
+    # general arm) the bracketing search
     use_closed = bool(fam.kernel) and method != "numeric" and (not position_only
                                                                 or fam.kernel in ik_general.POSITION_KERNELS)
     poe = compile_model(model)
