@@ -1,8 +1,11 @@
-"""Helpers the tests share: ``.npy`` bodies and files, and the agreement bound with Pinocchio."""
+"""Helpers the tests share: ``.npy`` bodies and files, the agreement bound with Pinocchio, and a guard
+that fails a test which opens any file."""
 
 from __future__ import annotations
 
+import builtins
 import io
+import os
 from pathlib import Path
 
 import numpy as np
@@ -25,3 +28,14 @@ def write_npy(path: Path, a) -> Path:
     """``a`` saved as an ``.npy`` file at ``path`` (as :func:`npy_bytes`); returns ``path``."""
     path.write_bytes(npy_bytes(a))
     return path
+
+
+def refuse_files(monkeypatch) -> None:
+    """From now on (until ``monkeypatch`` undoes it) any ``open`` -- ``builtins.open``, ``io.open``,
+    ``os.open`` -- fails the test with an ``AssertionError`` naming the file."""
+    def refuse(*args, **kwargs):
+        raise AssertionError(f"a file was opened: {args[:1]}")
+
+    monkeypatch.setattr(builtins, "open", refuse)
+    monkeypatch.setattr(io, "open", refuse)
+    monkeypatch.setattr(os, "open", refuse)

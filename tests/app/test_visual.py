@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import builtins
 import io
-import os
 import zipfile
 
 import numpy as np
 import pytest
 
 from kinematics.io.collision_geometry import mesh_source
+from tests.helpers import refuse_files
 
 
 @pytest.mark.parametrize("model_id", ["ur5", "panda"])
@@ -56,15 +55,6 @@ def test_primitives_carry_their_size_and_colour(api_client):
     assert links["b"][0]["kind"] == "sphere" and links["b"][0]["color"] is None
 
 
-def _refuse_files(monkeypatch):
-    def refuse(*args, **kwargs):
-        raise AssertionError(f"a file was opened: {args[:1]}")
-
-    monkeypatch.setattr(builtins, "open", refuse)
-    monkeypatch.setattr(io, "open", refuse)
-    monkeypatch.setattr(os, "open", refuse)
-
-
 def test_a_plain_upload_naming_meshes_gets_no_url_and_nothing_is_opened(api_client, catalogue, monkeypatch):
     text = catalogue.get("ur5").urdf  # names the catalogue's own package:// meshes
     r = api_client.post("/models", content=text.encode(), headers={"Content-Type": "application/xml"})
@@ -76,7 +66,7 @@ def test_a_plain_upload_naming_meshes_gets_no_url_and_nothing_is_opened(api_clie
       </link></robot>"""
     hid = api_client.post("/models", content=hostile.encode(), headers={"Content-Type": "application/xml"}).json()["id"]
     api_client.get(f"/models/{mid}")  # registered models are in memory: later reads open nothing
-    _refuse_files(monkeypatch)
+    refuse_files(monkeypatch)
     for model_id, count in ((mid, 6), (hid, 3)):
         body = api_client.get(f"/models/{model_id}/visual").json()
         meshes = [v for vs in body["links"].values() for v in vs if v["kind"] == "mesh"]

@@ -3,9 +3,7 @@ uploaded archive; hostile mesh names never read."""
 
 from __future__ import annotations
 
-import builtins
 import io
-import os
 import tarfile
 import zipfile
 import gzip
@@ -19,6 +17,7 @@ from kinematics.io.collision_geometry import (ArchiveMeshes, PackageMeshes, coll
                                               with_geometry_warnings)
 from kinematics.io.description import load_description, model_with_format
 from kinematics.io.urdf import parse_urdf
+from tests.helpers import refuse_files
 
 
 def _robot(collisions: str, name: str = "a") -> str:
@@ -58,19 +57,10 @@ HOSTILE = ["/etc/passwd.stl", "/dev/zero.stl", "file:///etc/shadow.stl", "packag
            "../outside.stl", "http://example.com/x.stl", "package:///dev/zero.stl"]
 
 
-def _refuse_files(monkeypatch):
-    def refuse(*args, **kwargs):
-        raise AssertionError(f"a file was opened: {args[:1]}")
-
-    monkeypatch.setattr(builtins, "open", refuse)
-    monkeypatch.setattr(io, "open", refuse)
-    monkeypatch.setattr(os, "open", refuse)
-
-
 @pytest.fixture
 def no_open(monkeypatch):
     """Fail the test if any file is opened (builtins.open, os.open, io.open)."""
-    _refuse_files(monkeypatch)
+    refuse_files(monkeypatch)
 
 
 @pytest.mark.parametrize("name", HOSTILE + ["package://ur_description/meshes/ur5/collision/base.stl", "meshes/a.stl"])
@@ -158,7 +148,7 @@ def _package(extra: dict[str, bytes] | None = None) -> dict[str, bytes]:
 def test_an_archive_s_meshes_come_from_its_members(monkeypatch):
     loaded = load_description(_zip(_package()))
     model = model_with_format(loaded)
-    _refuse_files(monkeypatch)  # the geometry and its check read the archive's bytes, no file
+    refuse_files(monkeypatch)  # the geometry and its check read the archive's bytes, no file
     assert isinstance(mesh_source(model), ArchiveMeshes)
     g = collision_geometry(model)
     base, tip = g.shapes["base"], g.shapes["tip"]
