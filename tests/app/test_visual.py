@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import io
-import zipfile
-
 import numpy as np
 import pytest
 
 from kinematics.io.collision_geometry import mesh_source
-from tests.helpers import refuse_files
+from tests.helpers import cube_stl, package_zip, refuse_files
 
 
 @pytest.mark.parametrize("model_id", ["ur5", "panda"])
@@ -97,21 +94,15 @@ def test_unknown_model_is_404(api_client):
 
 
 def test_an_archive_upload_serves_its_own_meshes(api_client):
-    import trimesh
-
-    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="stl")
+    cube = cube_stl()
     urdf = """<robot name="pair">
       <link name="a"><visual><geometry><mesh filename="package://pair/meshes/cube.stl" scale="2 2 2"/></geometry>
         </visual><visual><geometry><mesh filename="package://pair/meshes/missing.stl"/></geometry></visual></link>
       <link name="b"><visual><geometry><mesh filename="/etc/passwd.stl"/></geometry></visual></link>
       <joint name="x" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
         <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as zf:
-        zf.writestr("pair/package.xml", "<package><name>pair</name></package>")
-        zf.writestr("pair/urdf/pair.urdf", urdf)
-        zf.writestr("pair/meshes/cube.stl", cube)
-    r = api_client.post("/models", content=buf.getvalue(), headers={"Content-Type": "application/zip"})
+    r = api_client.post("/models", content=package_zip("pair", urdf, {"cube.stl": cube}),
+                        headers={"Content-Type": "application/zip"})
     assert r.status_code in (200, 201), r.text
     mid = r.json()["id"]
     body = api_client.get(f"/models/{mid}/visual").json()

@@ -17,7 +17,7 @@ from kinematics.io.collision_geometry import (ArchiveMeshes, PackageMeshes, coll
                                               with_geometry_warnings)
 from kinematics.io.description import load_description, model_with_format
 from kinematics.io.urdf import parse_urdf
-from tests.helpers import refuse_files
+from tests.helpers import cube_stl, refuse_files
 
 
 def _robot(collisions: str, name: str = "a") -> str:
@@ -112,12 +112,6 @@ def test_the_same_text_uploaded_gets_no_meshes(catalogue):
     assert sum("not opened" in w for w in g.warnings) == 7
 
 
-def _stl_bytes(size: float = 0.1) -> bytes:
-    import trimesh
-
-    return trimesh.creation.box(extents=(size, size, size)).export(file_type="stl")
-
-
 ARCHIVE_URDF = """<robot name="arm">
   <link name="base"><collision><geometry><mesh filename="package://arm_description/meshes/cube.stl" scale="2 2 2"/></geometry></collision></link>
   <link name="tip"><collision><geometry><mesh filename="../meshes/cube.stl"/></geometry></collision>
@@ -142,7 +136,7 @@ def _zip(members: dict[str, bytes], symlink: str | None = None) -> bytes:
 def _package(extra: dict[str, bytes] | None = None) -> dict[str, bytes]:
     return {"arm_description/package.xml": b"<package><name>arm_description</name></package>",
             "arm_description/urdf/arm.urdf": ARCHIVE_URDF.encode(),
-            "arm_description/meshes/cube.stl": _stl_bytes(), **(extra or {})}
+            "arm_description/meshes/cube.stl": cube_stl(), **(extra or {})}
 
 
 def test_an_archive_s_meshes_come_from_its_members(monkeypatch):
