@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from .common import CLOCK, Report, configurations, table
+from .common import CLOCK, Report, configurations, run_parts, table
 
 #: repeats of every measurement (the spread is over these)
 REPEATS = 7
@@ -236,12 +236,6 @@ def run(report: Report, quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    import argparse
-
-    p = argparse.ArgumentParser(prog="python -m bench.single", description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--only", default="library,service")
-    a = p.parse_args()
-    rep = Report()
-    for part in a.only.split(","):
-        {"library": library_table, "service": service_table, "asgi": asgi_table}[part](rep, a.quick)
+    run_parts("python -m bench.single", __doc__,
+              {"library": library_table, "service": service_table, "asgi": asgi_table},
+              default="library,service")
