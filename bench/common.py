@@ -121,6 +121,23 @@ class Report:
         self.sections.append(text)
 
 
+def run_parts(prog: str, doc: str, parts: dict[str, Callable[[Report, bool], object]], default: str,
+              argv: list[str] | None = None) -> Report:
+    """A suite's tables run on their own (``python -m bench.<suite>``): ``--quick``, and ``--only``
+    a comma-separated list of names of ``parts`` (default ``default``), each called as
+    ``part(report, quick)`` in the order given; returns the report."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog=prog, description=doc.splitlines()[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--only", default=default)
+    a = p.parse_args(argv)
+    report = Report()
+    for part in a.only.split(","):
+        parts[part](report, a.quick)
+    return report
+
+
 def cpu_model() -> str:
     try:
         with open("/proc/cpuinfo") as f:

@@ -75,29 +75,11 @@ def _worst(poe, link, sol, T) -> float:
     return max(float(p.max(initial=0.0)), float(r.max(initial=0.0)))
 
 
-def calibrated(model, seed: int = 3, distance: float = 1e-3, angle: float = 1e-3):
-    """``model`` with every moving joint's origin moved by ``distance`` m and turned by ``angle`` rad
-    (a random direction and axis each), as a per-robot calibration moves them."""
-    import dataclasses
-
-    from kinematics.spatial.transforms import exp_screws
-
-    rng = np.random.default_rng(seed)
-    joints = []
-    for j in model.joints:
-        if j.moving:
-            w, v = rng.normal(size=3), rng.normal(size=3)
-            E = exp_screws(np.array([w / np.linalg.norm(w)]), np.zeros((1, 3)), np.array([True]), np.array([angle]))[0]
-            origin = j.origin @ E
-            origin[:3, 3] += distance * v / np.linalg.norm(v)
-            j = dataclasses.replace(j, origin=origin)
-        joints.append(j)
-    return dataclasses.replace(model, joints=tuple(joints), content_hash=model.content_hash + f"-calibrated-{seed}")
-
-
 def _calibrated_row(n: int) -> list:
     """Ours on a UR5 with its joint origins moved by 1 mm / 1 mrad (EAIK and IK-Geo have no decomposition for it)."""
-    model = calibrated(default_catalogue().get("ur5"))
+    from kinematics.algorithms.calibration.synthetic import moved_origins
+
+    model = moved_origins(default_catalogue().get("ur5"))
     poe = compile_model(model)
     Q = model.sample_configurations(n, np.random.default_rng(2026))
     T = poe.fk(Q, ["tool0"])[:, 0]

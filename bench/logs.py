@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from .common import Report, best_of, configurations, measure, table, us
+from .common import Report, best_of, configurations, measure, run_parts, table, us
 
 THREAD_TARGET = 1.7
 SINGLE_TARGET = 2.0
@@ -249,12 +249,6 @@ def run(report: Report, quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    import argparse
-
-    p = argparse.ArgumentParser(prog="python -m bench.logs", description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--only", default="threads,single,log")
-    a = p.parse_args()
-    rep = Report()
-    for part in a.only.split(","):
-        {"threads": threads_table, "single": single_table, "log": log_tables}[part](rep, a.quick)
+    run_parts("python -m bench.logs", __doc__,
+              {"threads": threads_table, "single": single_table, "log": log_tables},
+              default="threads,single,log")

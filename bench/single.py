@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from .common import CLOCK, Report, configurations, table
+from .common import CLOCK, Report, configurations, run_parts, table
 
 #: repeats of every measurement (the spread is over these)
 REPEATS = 7
@@ -58,6 +58,18 @@ def spread(fns: dict, repeats: int = REPEATS, calls: int = CALLS, clock=CLOCK) -
 
 def _stats(v: np.ndarray, unit: float = 1e6, digits: int = 2) -> list[str]:
     return [f"{np.min(v) * unit:.{digits}f}", f"{np.median(v) * unit:.{digits}f}", f"{np.percentile(v, 90) * unit:.{digits}f}"]
+
+
+def _fk_health_rows(robot: str, med: dict[str, np.ndarray], unit: float, digits: int) -> list[list[str]]:
+    """The service tables' two rows: one configuration's FK and /health, min / median / p90 of the
+    per-repeat seconds ``med`` in ``unit`` (1e3: ms, 1e6: µs)."""
+    return [[f"POST /models/{robot}/fk (JSON, one q)", *_stats(med["fk"], unit, digits)],
+            ["GET /health", *_stats(med["health"], unit, digits)]]
+
+
+def _ratio_cells(ratio: np.ndarray) -> list[str]:
+    """Min, median (bold) and p90 of the per-repeat ratios FK / health."""
+    return [f"{ratio.min():.2f}", f"**{np.median(ratio):.2f}**", f"{np.percentile(ratio, 90):.2f}"]
 
 
 def library_table(report: Report, quick: bool) -> list[dict]:
@@ -150,12 +162,9 @@ def service_table(report: Report, quick: bool, robot: str = "ur5") -> dict:
     ratio = med["fk"] / med["health"]
     report.add(f"Service: one configuration's FK against /health ({robot}, live one-worker uvicorn; "
                f"per-repeat median latency over {REPEATS} repeats of {n} requests each)",
-               table(["request", "min (ms)", "median (ms)", "p90 (ms)"], [
-                   [f"POST /models/{robot}/fk (JSON, one q)", *_stats(med["fk"], 1e3, 3)],
-                   ["GET /health", *_stats(med["health"], 1e3, 3)],
-               ]) + "\n\n" + table(["ratio FK / health (per repeat)", "min", "median", "p90", f"median ≤ {SERVICE_TARGET}?"], [
-                   ["", f"{ratio.min():.2f}", f"**{np.median(ratio):.2f}**", f"{np.percentile(ratio, 90):.2f}",
-                    "yes" if np.median(ratio) <= SERVICE_TARGET else "no"]]),
+               table(["request", "min (ms)", "median (ms)", "p90 (ms)"], _fk_health_rows(robot, med, 1e3, 3))
+               + "\n\n" + table(["ratio FK / health (per repeat)", "min", "median", "p90", f"median ≤ {SERVICE_TARGET}?"], [
+                   ["", *_ratio_cells(ratio), "yes" if np.median(ratio) <= SERVICE_TARGET else "no"]]),
                "Wall time of sequential requests from one keep-alive httpx client over loopback (client time "
                "included); each repeat alternates a block of FK requests and a block of /health requests.")
     return {"ratio_median": float(np.median(ratio)), "fk_median": float(np.median(med["fk"])),
@@ -219,11 +228,8 @@ def asgi_table(report: Report, quick: bool, robot: str = "ur5") -> dict:
     ratio = med["fk"] / med["health"]
     report.add(f"Service work per request in-process ({robot}; the app called as ASGI, no network; µs of CPU "
                f"per request over {REPEATS} repeats of {n} requests)",
-               table(["request", "min", "median", "p90"], [
-                   [f"POST /models/{robot}/fk (JSON, one q)", *_stats(med["fk"], 1e6, 1)],
-                   ["GET /health", *_stats(med["health"], 1e6, 1)],
-                   ["ratio FK / health", f"{ratio.min():.2f}", f"**{np.median(ratio):.2f}**",
-                    f"{np.percentile(ratio, 90):.2f}"]]),
+               table(["request", "min", "median", "p90"],
+                     _fk_health_rows(robot, med, 1e6, 1) + [["ratio FK / health", *_ratio_cells(ratio)]]),
                "CPU time of the benchmarking thread: what the worker itself spends on a request (routing, "
                "middleware, reading, the use case, the JSON answer), which the live table's wall times add "
                "the client, uvicorn and the loopback to; it moves far less with the machine's load.")
@@ -236,12 +242,6 @@ def run(report: Report, quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    import argparse
-
-    p = argparse.ArgumentParser(prog="python -m bench.single", description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--only", default="library,service")
-    a = p.parse_args()
-    rep = Report()
-    for part in a.only.split(","):
-        {"library": library_table, "service": service_table, "asgi": asgi_table}[part](rep, a.quick)
+    run_parts("python -m bench.single", __doc__,
+              {"library": library_table, "service": service_table, "asgi": asgi_table},
+              default="library,service")

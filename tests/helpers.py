@@ -1,8 +1,12 @@
-"""Helpers the tests share: ``.npy`` bodies and files, and the agreement bound with Pinocchio."""
+"""Helpers the tests share: ``.npy`` bodies and files, the agreement bound with Pinocchio, packages
+with meshes as upload archives, and a guard that fails a test which opens any file."""
 
 from __future__ import annotations
 
+import builtins
 import io
+import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -25,3 +29,33 @@ def write_npy(path: Path, a) -> Path:
     """``a`` saved as an ``.npy`` file at ``path`` (as :func:`npy_bytes`); returns ``path``."""
     path.write_bytes(npy_bytes(a))
     return path
+
+
+def cube_stl(size: float = 0.1) -> bytes:
+    """A cube of edge ``size`` metres centred on its origin, as binary STL bytes (needs trimesh)."""
+    import trimesh
+
+    return trimesh.creation.box(extents=(size, size, size)).export(file_type="stl")
+
+
+def package_zip(package: str, urdf: str, meshes: dict[str, bytes]) -> bytes:
+    """A ROS package as an upload archive (zip bytes): ``<package>/package.xml`` naming it,
+    ``<package>/urdf/<package>.urdf`` holding ``urdf`` and every mesh at ``<package>/meshes/<name>``."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        zf.writestr(f"{package}/package.xml", f"<package><name>{package}</name></package>")
+        zf.writestr(f"{package}/urdf/{package}.urdf", urdf)
+        for name, data in meshes.items():
+            zf.writestr(f"{package}/meshes/{name}", data)
+    return buf.getvalue()
+
+
+def refuse_files(monkeypatch) -> None:
+    """From now on (until ``monkeypatch`` undoes it) any ``open`` -- ``builtins.open``, ``io.open``,
+    ``os.open`` -- fails the test with an ``AssertionError`` naming the file."""
+    def refuse(*args, **kwargs):
+        raise AssertionError(f"a file was opened: {args[:1]}")
+
+    monkeypatch.setattr(builtins, "open", refuse)
+    monkeypatch.setattr(io, "open", refuse)
+    monkeypatch.setattr(os, "open", refuse)

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import io
 import xml.etree.ElementTree as ET
-import zipfile
 
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
 from kinematics.algorithms import self_collision
+from tests.helpers import cube_stl, package_zip
 
 
 @pytest.fixture
@@ -95,9 +94,7 @@ def test_a_plain_upload_names_the_meshes_it_does_not_open(client, catalogue):
 
 
 def test_an_archive_upload_brings_its_meshes(client):
-    import trimesh
-
-    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="stl")
+    cube = cube_stl()
     urdf = """<robot name="pair">
       <link name="a"><collision><geometry><mesh filename="package://pair/meshes/cube.stl"/></geometry></collision></link>
       <link name="b"><collision><geometry><mesh filename="package://pair/meshes/cube.stl"/></geometry></collision></link>
@@ -105,12 +102,8 @@ def test_an_archive_upload_brings_its_meshes(client):
       <joint name="j0" type="fixed"><parent link="a"/><child link="m"/></joint>
       <joint name="x" type="prismatic"><parent link="m"/><child link="b"/><axis xyz="1 0 0"/>
         <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as zf:
-        zf.writestr("pair/package.xml", "<package><name>pair</name></package>")
-        zf.writestr("pair/urdf/pair.urdf", urdf)
-        zf.writestr("pair/meshes/cube.stl", cube)
-    r = client.post("/models", content=buf.getvalue(), headers={"Content-Type": "application/zip"})
+    archive = package_zip("pair", urdf, {"cube.stl": cube})
+    r = client.post("/models", content=archive, headers={"Content-Type": "application/zip"})
     assert r.status_code in (200, 201), r.text
     mid = r.json()["id"]
     body = client.post(f"/models/{mid}/collision", json={"q": [[0.05], [0.2]], "distance": True}).json()
@@ -121,13 +114,11 @@ def test_an_archive_upload_brings_its_meshes(client):
 
 def test_an_archive_s_meshes_survive_a_restart(api_data_dir, monkeypatch):
     """Another process (a worker, or the service after a restart) reads the same meshes."""
-    import trimesh
-
     monkeypatch.setenv("KIN_DATA_DIR", str(api_data_dir))
     monkeypatch.setenv("KIN_COLLISION_SAMPLES", "200")
     from app.main import create_app
 
-    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="stl")
+    cube = cube_stl()
     urdf = """<robot name="trio">
       <link name="a"><collision><geometry><mesh filename="package://trio/meshes/cube.stl"/></geometry></collision></link>
       <link name="m"><collision><origin xyz="0 0 5"/><geometry><sphere radius="0.01"/></geometry></collision></link>
@@ -135,14 +126,10 @@ def test_an_archive_s_meshes_survive_a_restart(api_data_dir, monkeypatch):
       <joint name="j0" type="fixed"><parent link="a"/><child link="m"/></joint>
       <joint name="x" type="prismatic"><parent link="m"/><child link="b"/><axis xyz="1 0 0"/>
         <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as zf:
-        zf.writestr("trio/package.xml", "<package><name>trio</name></package>")
-        zf.writestr("trio/urdf/trio.urdf", urdf)
-        zf.writestr("trio/meshes/cube.stl", cube)
+    archive = package_zip("trio", urdf, {"cube.stl": cube})
     body = {"q": [[0.05], [0.5]], "distance": True}
     with TestClient(create_app()) as c:
-        mid = c.post("/models", content=buf.getvalue(), headers={"Content-Type": "application/zip"}).json()["id"]
+        mid = c.post("/models", content=archive, headers={"Content-Type": "application/zip"}).json()["id"]
         first = c.post(f"/models/{mid}/collision", json=body).json()
     assert first["links"] == ["a", "m", "b"] and first["checked_pairs"] == 1  # (a, b): not adjacent
     assert first["colliding"] == [True, False]

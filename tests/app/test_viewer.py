@@ -129,6 +129,16 @@ def _frames_drawn(driver, count: int = 2) -> None:
         "const step = () => (--n <= 0 ? done() : requestAnimationFrame(step)); requestAnimationFrame(step);", count)
 
 
+def _docs_screenshot(driver, artifact: str, docs_path: Path) -> None:
+    """Once the page's last change is drawn: a screenshot saved as ``ARTIFACTS / artifact`` and copied to
+    ``docs_path``, the picture the documentation shows."""
+    _frames_drawn(driver)
+    ARTIFACTS.mkdir(exist_ok=True)
+    shot = ARTIFACTS / artifact
+    driver.save_screenshot(str(shot))
+    docs_path.write_bytes(shot.read_bytes())
+
+
 def _changed_fraction(before, after) -> float:
     """The fraction of the canvas's pixels that differ visibly between two images."""
     return float((np.abs(np.asarray(after, dtype=int) - np.asarray(before, dtype=int)).sum(axis=2) > 30).mean())
@@ -436,11 +446,7 @@ def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(serv
           "the pose panel at the target")
     labels = browser.execute_script("return [...document.querySelectorAll('#sliders .value')].map(e => e.textContent)")
     assert [float(t.split()[0]) for t in labels] == pytest.approx(q, abs=10 ** -PANEL_DECIMALS)
-    _frames_drawn(browser)
-    ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / "viewer_ik_solved.png"
-    browser.save_screenshot(str(shot))
-    DOCS_SCREENSHOT.write_bytes(shot.read_bytes())
+    _docs_screenshot(browser, "viewer_ik_solved.png", DOCS_SCREENSHOT)
 
     # a target 5 m away: not reachable, the best effort is shown, the sliders stay finite
     far = (np.asarray(position) + UNREACHABLE_OFFSET).tolist()

@@ -7,7 +7,7 @@ import httpx
 import numpy as np
 import pytest
 
-from tests.app.test_viewer import (ARTIFACTS, UR5_Q_KNOWN, _enable_ik, _frames_drawn, _open, _quaternion,  # noqa: F401
+from tests.app.test_viewer import (UR5_Q_KNOWN, _docs_screenshot, _enable_ik, _open, _quaternion,  # noqa: F401
                                    _severe_console, _state, _ur5_fk, _wait, browser, needs_browser, server)
 from tests.paths import REPO
 
@@ -105,11 +105,7 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     projection = _js(browser, "window.viewerTest.projectLinks()")
     assert all(0 <= x <= projection["width"] and 0 <= y <= projection["height"]
                for x, y, _ in projection["points"].values())
-    _frames_drawn(browser)
-    ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / "viewer_ik_ghosts.png"
-    browser.save_screenshot(str(shot))
-    GHOSTS_SCREENSHOT.write_bytes(shot.read_bytes())
+    _docs_screenshot(browser, "viewer_ik_ghosts.png", GHOSTS_SCREENSHOT)
     assert _severe_console(browser) == []
 
 
@@ -209,11 +205,7 @@ def test_the_calibration_tab_draws_a_bar_per_measurement(server, browser):
     assert again["residuals"]["before"] == pytest.approx(cal["residuals"]["before"], rel=1e-9)
 
     browser.find_element(By.ID, "btn-fit").click()             # the wider panel left the arm off-centre
-    _frames_drawn(browser)
-    ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / "viewer_calibration.png"
-    browser.save_screenshot(str(shot))
-    CALIBRATION_SCREENSHOT.write_bytes(shot.read_bytes())
+    _docs_screenshot(browser, "viewer_calibration.png", CALIBRATION_SCREENSHOT)
     assert _severe_console(browser) == []
 
 

@@ -2,15 +2,11 @@
 
 from __future__ import annotations
 
-import builtins
-import io
-import os
-import zipfile
-
 import numpy as np
 import pytest
 
 from kinematics.io.collision_geometry import mesh_source
+from tests.helpers import cube_stl, package_zip, refuse_files
 
 
 @pytest.mark.parametrize("model_id", ["ur5", "panda"])
@@ -56,15 +52,6 @@ def test_primitives_carry_their_size_and_colour(api_client):
     assert links["b"][0]["kind"] == "sphere" and links["b"][0]["color"] is None
 
 
-def _refuse_files(monkeypatch):
-    def refuse(*args, **kwargs):
-        raise AssertionError(f"a file was opened: {args[:1]}")
-
-    monkeypatch.setattr(builtins, "open", refuse)
-    monkeypatch.setattr(io, "open", refuse)
-    monkeypatch.setattr(os, "open", refuse)
-
-
 def test_a_plain_upload_naming_meshes_gets_no_url_and_nothing_is_opened(api_client, catalogue, monkeypatch):
     text = catalogue.get("ur5").urdf  # names the catalogue's own package:// meshes
     r = api_client.post("/models", content=text.encode(), headers={"Content-Type": "application/xml"})
@@ -76,7 +63,7 @@ def test_a_plain_upload_naming_meshes_gets_no_url_and_nothing_is_opened(api_clie
       </link></robot>"""
     hid = api_client.post("/models", content=hostile.encode(), headers={"Content-Type": "application/xml"}).json()["id"]
     api_client.get(f"/models/{mid}")  # registered models are in memory: later reads open nothing
-    _refuse_files(monkeypatch)
+    refuse_files(monkeypatch)
     for model_id, count in ((mid, 6), (hid, 3)):
         body = api_client.get(f"/models/{model_id}/visual").json()
         meshes = [v for vs in body["links"].values() for v in vs if v["kind"] == "mesh"]
@@ -107,21 +94,15 @@ def test_unknown_model_is_404(api_client):
 
 
 def test_an_archive_upload_serves_its_own_meshes(api_client):
-    import trimesh
-
-    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="stl")
+    cube = cube_stl()
     urdf = """<robot name="pair">
       <link name="a"><visual><geometry><mesh filename="package://pair/meshes/cube.stl" scale="2 2 2"/></geometry>
         </visual><visual><geometry><mesh filename="package://pair/meshes/missing.stl"/></geometry></visual></link>
       <link name="b"><visual><geometry><mesh filename="/etc/passwd.stl"/></geometry></visual></link>
       <joint name="x" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
         <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as zf:
-        zf.writestr("pair/package.xml", "<package><name>pair</name></package>")
-        zf.writestr("pair/urdf/pair.urdf", urdf)
-        zf.writestr("pair/meshes/cube.stl", cube)
-    r = api_client.post("/models", content=buf.getvalue(), headers={"Content-Type": "application/zip"})
+    r = api_client.post("/models", content=package_zip("pair", urdf, {"cube.stl": cube}),
+                        headers={"Content-Type": "application/zip"})
     assert r.status_code in (200, 201), r.text
     mid = r.json()["id"]
     body = api_client.get(f"/models/{mid}/visual").json()

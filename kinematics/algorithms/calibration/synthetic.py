@@ -5,16 +5,22 @@
 (10 mrad), an unknown device frame (a random rotation, a translation of about a metre) and a
 marker point or tool frame -- and :meth:`Truth.measure` what a device with per-axis noise
 ``sigma`` sees at configurations Q (``outliers``: indices moved by ``outlier_size`` metres).
+
+:func:`moved_origins` is a calibrated robot as a plain model: every moving joint's origin moved and
+turned a little, for what runs on a calibrated model (inverse kinematics of a chain whose axes are
+no longer exactly parallel or intersecting).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...model.robot import RobotModel
 from ...spatial.rotations import rpy_to_matrix
+from ...spatial.transforms import exp_screws
 from .errors_model import ErrorModel
 
 
@@ -84,3 +90,33 @@ def experiment(model: RobotModel, link: str, measure: str, n: int, rng: np.rando
     Q = model.sample_configurations(n, rng)
     return truth, Q, truth.measure(Q, sigma, rng, outliers=outliers)
 
+
+
+def moved_origins(model: RobotModel, seed: int = 3, distance: float = 1e-3, angle: float = 1e-3) -> RobotModel:
+    """``model`` as a per-robot calibration finds it: every moving joint's origin ``T_parent_joint``
+    turned by ``angle`` rad about a random axis of the joint frame (``origin @ exp([w] angle)``), then
+    moved by ``distance`` m in a random direction of the parent frame; the axis and the direction of
+    each joint are drawn in joint order from ``default_rng(seed)``. Its ``content_hash`` gets the
+    suffix ``-calibrated-<seed>`` (it compiles to its own kernels).
+
+    >>> from kinematics.io import parse_urdf
+    >>> m = parse_urdf('<robot name="r"><link name="a"/><link name="b"/><joint name="j" type="revolute">'
+    ...                '<parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+    ...                '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+    >>> moved = moved_origins(m, seed=1)
+    >>> round(float(np.linalg.norm(moved.joints[0].origin[:3, 3] - m.joints[0].origin[:3, 3])), 12)
+    0.001
+    >>> moved.content_hash == m.content_hash + "-calibrated-1"
+    True
+    """
+    rng = np.random.default_rng(seed)
+    joints = []
+    for j in model.joints:
+        if j.moving:
+            w, v = rng.normal(size=3), rng.normal(size=3)
+            E = exp_screws(np.array([w / np.linalg.norm(w)]), np.zeros((1, 3)), np.array([True]), np.array([angle]))[0]
+            origin = j.origin @ E
+            origin[:3, 3] += distance * v / np.linalg.norm(v)
+            j = dataclasses.replace(j, origin=origin)
+        joints.append(j)
+    return dataclasses.replace(model, joints=tuple(joints), content_hash=model.content_hash + f"-calibrated-{seed}")

@@ -5,14 +5,13 @@ multistart search, singular and unreachable targets, limits respect vs ignore, l
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
 from kinematics import api, compile_model, default_catalogue
 from kinematics.algorithms.ik import inverse_kinematics, pose_errors
 from kinematics.algorithms import ik_all
+from kinematics.algorithms.calibration.synthetic import moved_origins
 from kinematics.algorithms.ik_all import all_solutions
 from kinematics.algorithms.ik_families import detect, reduce_chain
 from kinematics.errors import LockedJointError
@@ -126,24 +125,8 @@ def test_general_6r_search_finds_everything_a_multistart_finds():
     _pinocchio_exact(model, link, ours, T)
 
 
-def _calibrated(model, seed, distance=1e-3, angle=1e-3):
-    """``model`` with every moving joint's origin moved by ``distance`` and turned by ``angle``."""
-    rng = np.random.default_rng(seed)
-    joints = []
-    for j in model.joints:
-        if j.moving:
-            w = rng.normal(size=3)
-            v = rng.normal(size=3)
-            E = exp_screws(np.array([w / np.linalg.norm(w)]), np.zeros((1, 3)), np.array([True]), np.array([angle]))[0]
-            origin = j.origin @ E
-            origin[:3, 3] += distance * v / np.linalg.norm(v)
-            j = dataclasses.replace(j, origin=origin)
-        joints.append(j)
-    return dataclasses.replace(model, joints=tuple(joints), content_hash=model.content_hash + f"-calibrated-{seed}")
-
-
 def test_a_calibrated_ur5_gets_every_solution(catalogue):
-    model = _calibrated(catalogue.get("ur5"), seed=3)
+    model = moved_origins(catalogue.get("ur5"), seed=3)
     fam = detect(reduce_chain(model, "tool0"))
     assert fam.name == "three_parallel" and fam.near and fam.closed_form and 1e-4 < fam.deviation < 1e-2
     Q, T = _targets(model, "tool0", 300, seed=2)
@@ -194,7 +177,7 @@ def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catal
     """Targets where the polish of the ideal chain's closed form finds fewer solutions than the ideal
     chain has: the elimination of the real chain (or the search, where it is not trusted) lists every
     exact solution a dense search finds."""
-    model = _calibrated(catalogue.get("ur5"), seed=3)
+    model = moved_origins(catalogue.get("ur5"), seed=3)
     Q, T = _targets(model, "tool0", 600, seed=2026)
     chain, fam, real = ik_all._chain_family(model, "tool0", None, None)
     _, found, *_, nominal = ik_all._closed_form_solutions(model, chain, fam, real, T, np.zeros((len(T), 6)),

@@ -121,20 +121,32 @@ def test_two_solutions_are_distinct(f):
     assert n == 2 and abs(sols[0] - sols[1]) > 0.1
 
 
+def sp6_sides(h, k, p, t1, t2):
+    """The two left-hand sides of subproblem 6 at angles (t1, t2): ``h0ᵀR(k0, t1)p0 + h1ᵀR(k1, t2)p1``
+    and ``h2ᵀR(k2, t1)p2 + h3ᵀR(k3, t2)p3`` (h, k, p of shape (4, 3))."""
+    return (h[0] @ rot(k[0], t1) @ p[0] + h[1] @ rot(k[1], t2) @ p[1],
+            h[2] @ rot(k[2], t1) @ p[2] + h[3] @ rot(k[3], t2) @ p[3])
+
+
+def sp6_instance(rng):
+    """A random subproblem 6 with a known solution: unit axes h, k (4, 3), points p (4, 3), the angles
+    (a, b) drawn from ``rng`` in that order, and the right-hand sides d1, d2 they give."""
+    h = np.array([unit(rng) for _ in range(4)])
+    k = np.array([unit(rng) for _ in range(4)])
+    p = rng.normal(size=(4, 3))
+    a, b = rng.uniform(-np.pi, np.pi, 2)
+    return (h, k, p, a, b, *sp6_sides(h, k, p, a, b))
+
+
 def test_sp6_random():
     found_all = 0
     for _ in range(TRIALS):
-        h = np.array([unit(RNG) for _ in range(4)])
-        k = np.array([unit(RNG) for _ in range(4)])
-        p = RNG.normal(size=(4, 3))
-        a, b = RNG.uniform(-np.pi, np.pi, 2)
-        d1 = h[0] @ rot(k[0], a) @ p[0] + h[1] @ rot(k[1], b) @ p[1]
-        d2 = h[2] @ rot(k[2], a) @ p[2] + h[3] @ rot(k[3], b) @ p[3]
+        h, k, p, a, b, d1, d2 = sp6_instance(RNG)
         t1, t2, n, flag = sp6(h, k, p, d1, d2)
         assert flag == EXACT and 1 <= n <= 4
         for i in range(n):
-            e1 = h[0] @ rot(k[0], t1[i]) @ p[0] + h[1] @ rot(k[1], t2[i]) @ p[1] - d1
-            e2 = h[2] @ rot(k[2], t1[i]) @ p[2] + h[3] @ rot(k[3], t2[i]) @ p[3] - d2
+            s1, s2 = sp6_sides(h, k, p, t1[i], t2[i])
+            e1, e2 = s1 - d1, s2 - d2
             assert abs(e1) < 1e-9 and abs(e2) < 1e-9
         close = [abs(np.mod(t1[i] - a + np.pi, 2 * np.pi) - np.pi) < 1e-5 and
                  abs(np.mod(t2[i] - b + np.pi, 2 * np.pi) - np.pi) < 1e-5 for i in range(n)]
@@ -164,12 +176,7 @@ def test_sp6_misses_no_root_of_a_dense_scan():
         return hh @ pp - (hh @ kk) * kp, hh @ np.cross(kk, pp), (hh @ kk) * kp
 
     for _ in range(60):
-        h = np.array([unit(rng) for _ in range(4)])
-        k = np.array([unit(rng) for _ in range(4)])
-        p = rng.normal(size=(4, 3))
-        a, b = rng.uniform(-np.pi, np.pi, 2)
-        d1 = h[0] @ rot(k[0], a) @ p[0] + h[1] @ rot(k[1], b) @ p[1]
-        d2 = h[2] @ rot(k[2], a) @ p[2] + h[3] @ rot(k[3], b) @ p[3]
+        h, k, p, a, b, d1, d2 = sp6_instance(rng)
         T = [terms(h[i], k[i], p[i]) for i in range(4)]
         B = np.array([[T[1][0], T[1][1]], [T[3][0], T[3][1]]])
         rhs = np.stack([d1 - T[0][2] - T[1][2] - T[0][0] * c - T[0][1] * s,

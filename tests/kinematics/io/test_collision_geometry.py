@@ -3,9 +3,7 @@ uploaded archive; hostile mesh names never read."""
 
 from __future__ import annotations
 
-import builtins
 import io
-import os
 import tarfile
 import zipfile
 import gzip
@@ -19,6 +17,7 @@ from kinematics.io.collision_geometry import (ArchiveMeshes, PackageMeshes, coll
                                               with_geometry_warnings)
 from kinematics.io.description import load_description, model_with_format
 from kinematics.io.urdf import parse_urdf
+from tests.helpers import cube_stl, refuse_files
 
 
 def _robot(collisions: str, name: str = "a") -> str:
@@ -58,19 +57,10 @@ HOSTILE = ["/etc/passwd.stl", "/dev/zero.stl", "file:///etc/shadow.stl", "packag
            "../outside.stl", "http://example.com/x.stl", "package:///dev/zero.stl"]
 
 
-def _refuse_files(monkeypatch):
-    def refuse(*args, **kwargs):
-        raise AssertionError(f"a file was opened: {args[:1]}")
-
-    monkeypatch.setattr(builtins, "open", refuse)
-    monkeypatch.setattr(io, "open", refuse)
-    monkeypatch.setattr(os, "open", refuse)
-
-
 @pytest.fixture
 def no_open(monkeypatch):
     """Fail the test if any file is opened (builtins.open, os.open, io.open)."""
-    _refuse_files(monkeypatch)
+    refuse_files(monkeypatch)
 
 
 @pytest.mark.parametrize("name", HOSTILE + ["package://ur_description/meshes/ur5/collision/base.stl", "meshes/a.stl"])
@@ -122,12 +112,6 @@ def test_the_same_text_uploaded_gets_no_meshes(catalogue):
     assert sum("not opened" in w for w in g.warnings) == 7
 
 
-def _stl_bytes(size: float = 0.1) -> bytes:
-    import trimesh
-
-    return trimesh.creation.box(extents=(size, size, size)).export(file_type="stl")
-
-
 ARCHIVE_URDF = """<robot name="arm">
   <link name="base"><collision><geometry><mesh filename="package://arm_description/meshes/cube.stl" scale="2 2 2"/></geometry></collision></link>
   <link name="tip"><collision><geometry><mesh filename="../meshes/cube.stl"/></geometry></collision>
@@ -152,13 +136,13 @@ def _zip(members: dict[str, bytes], symlink: str | None = None) -> bytes:
 def _package(extra: dict[str, bytes] | None = None) -> dict[str, bytes]:
     return {"arm_description/package.xml": b"<package><name>arm_description</name></package>",
             "arm_description/urdf/arm.urdf": ARCHIVE_URDF.encode(),
-            "arm_description/meshes/cube.stl": _stl_bytes(), **(extra or {})}
+            "arm_description/meshes/cube.stl": cube_stl(), **(extra or {})}
 
 
 def test_an_archive_s_meshes_come_from_its_members(monkeypatch):
     loaded = load_description(_zip(_package()))
     model = model_with_format(loaded)
-    _refuse_files(monkeypatch)  # the geometry and its check read the archive's bytes, no file
+    refuse_files(monkeypatch)  # the geometry and its check read the archive's bytes, no file
     assert isinstance(mesh_source(model), ArchiveMeshes)
     g = collision_geometry(model)
     base, tip = g.shapes["base"], g.shapes["tip"]
