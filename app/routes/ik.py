@@ -29,7 +29,7 @@ from kinematics.usecases.ik_all import parse_locked as read_locked
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
                        execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
-from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
 from ..npy import decode_targets
@@ -128,7 +128,7 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
         return _all_answer(rec.id, answer, request)
     sol = answer.solution
     record_ik(sol.success, sol.iterations)
-    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
+    if wants_npz(request):
         headers = names_headers([answer.link], answer.model.joint_names)
         headers = {"X-Link": answer.link, **{k: v for k, v in headers.items() if "Joint-Names" in k}}
         arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
@@ -153,7 +153,7 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
 
 def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
     """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
-    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
+    if wants_npz(request):
         headers = names_headers([answer.link], answer.model.joint_names)
         headers = {"X-Link": answer.link, "X-Family": answer.family, "X-Method": answer.method,
                    **{k: v for k, v in headers.items() if "Joint-Names" in k}}
