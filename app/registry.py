@@ -546,8 +546,8 @@ class Registry:
     def _read_stored(self, model_id: str, path: Path, st: os.stat_result, key) -> ModelRecord:
         data = path.read_bytes()
         meta = self._read_meta(model_id)
-        created = meta.get("created") if isinstance(meta.get("created"), str) and meta.get("created") else \
-            datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")
+        created = _text(meta.get("created")) or datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(
+            timespec="seconds")
         table = description = upload = None
         if _CONVERTED_ID.match(model_id):
             upload = meta.get("upload")
