@@ -14,7 +14,6 @@ import numpy as np
 
 from .. import api
 from ..usecases import Query
-from ..io.poses import tool_offset
 from ..io.result_files import ResultWriter, RowSampler
 from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
@@ -106,7 +105,7 @@ def _run(args, model, links, point) -> int:
 
     dof = model.dof
     err = pinocchio.compare_velocity(model, sampler.Q[:, :dof], sampler.Q[:, dof:], links, references=(reference,),
-                                     twists={reference: sampler.results}, tool=tool_offset(point=point))
+                                     twists={reference: sampler.results}, tool=query.T_tool)
     print(f"velocity: verify: {len(sampler.rows)} sampled rows x {len(links)} links, reference {reference.value} vs "
           f"{pinocchio.REFERENCE_NAME}: max twist error {err:.3g}", file=sys.stderr)
     return _verdict("velocity", err)
