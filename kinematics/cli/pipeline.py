@@ -354,11 +354,19 @@ def chunk_times(rows, start: int, n: int):
     return times
 
 
-def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
+def stream_option_problem(args) -> str | None:
+    """What is wrong with ``--chunk`` or ``--verify K`` of a streamed command (:func:`_io_options`), or None."""
     if args.chunk < 1:
-        return _fail(command, "--chunk must be positive", EXIT_USAGE)
+        return "--chunk must be positive"
     if args.verify is not None and args.verify < 1:
-        return _fail(command, "--verify needs a positive number of rows", EXIT_USAGE)
+        return "--verify needs a positive number of rows"
+    return None
+
+
+def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
+    problem = stream_option_problem(args)
+    if problem:
+        return _fail(command, problem, EXIT_USAGE)
     source, in_fmt, dest, out_fmt = _endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     outside = 0

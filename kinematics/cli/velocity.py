@@ -19,7 +19,7 @@ from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
 from . import EXIT_OK, EXIT_USAGE, add_command
 from .pipeline import (_endpoints, _fail, _io_options, _quietly, _resolve_links, _timing, _verdict,
-                       model_or_exit_code, parse_point, verification_due)
+                       model_or_exit_code, parse_point, stream_option_problem, verification_due)
 from .progress import progress
 
 STATE_HELP = """input (INPUT, by extension; '-' reads CSV from standard input): per row the joint values, then
@@ -73,10 +73,9 @@ def run_velocity(args) -> int:
 
 
 def _run(args, model, links, point) -> int:
-    if args.chunk < 1:
-        return _fail("velocity", "--chunk must be positive", EXIT_USAGE)
-    if args.verify is not None and args.verify < 1:
-        return _fail("velocity", "--verify needs a positive number of rows", EXIT_USAGE)
+    problem = stream_option_problem(args)
+    if problem:
+        return _fail("velocity", problem, EXIT_USAGE)
     source, in_fmt, dest, out_fmt = _endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     reference = Reference(args.reference)
