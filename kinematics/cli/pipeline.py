@@ -415,11 +415,11 @@ def run_fk(args) -> int:
     model = model_or_exit_code(args, "fk")
     if isinstance(model, int):
         return model
-    if args.dask:
-        return _run_dask(args, "fk", model, links=_resolve_links(model, args.links))
     links = _resolve_links(model, args.links)
+    if args.dask:
+        return _run_dask(args, "fk", model, links=links)
     if _output_format(args) == "mcap":
-        if args.links and _resolve_links(model, args.links) != list(model.links):
+        if args.links and links != list(model.links):
             return _fail("fk", "MCAP output is the TF tree of every link: drop --links (or give --links all)", EXIT_USAGE)
         links = list(model.links)
 
