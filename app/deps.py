@@ -84,6 +84,14 @@ def media_type(request: Request) -> str:
 
 
 def wants_npy(request: Request) -> bool:
+    """The client accepts an ``.npy`` answer (``Accept: application/x-npy``)."""
     from .responses import NPY_MEDIA_TYPE
 
     return NPY_MEDIA_TYPE in request.headers.get("accept", "").lower()
+
+
+def wants_npz(request: Request) -> bool:
+    """The client accepts an ``.npz`` answer (``Accept: application/x-npz``)."""
+    from .responses import NPZ_MEDIA_TYPE
+
+    return NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower()

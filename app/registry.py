@@ -383,9 +383,7 @@ class Registry:
             try:
                 atomic_write(self._meshes_path(model_id), loaded.meshes.to_bytes())
             except OSError as exc:
-                log.error("cannot store the meshes of %s in %s: %s", model_id, self.models_dir, exc)
-                raise ProblemError(507, f"model {model_id} could not be stored: {exc.strerror or exc}",
-                                   slug="storage-error", title="Insufficient storage") from None
+                raise storage_problem(model_id, "stored", exc) from None
         upload = {"format": loaded.format, "container": loaded.container, "entry": loaded.entry,
                   "args": dict(loaded.args or {}), "warnings": list(model.warnings),
                   "urdf_sha256": hashlib.sha256(urdf).hexdigest(), "source_sha256": hashlib.sha256(data).hexdigest()}
@@ -548,8 +546,8 @@ class Registry:
     def _read_stored(self, model_id: str, path: Path, st: os.stat_result, key) -> ModelRecord:
         data = path.read_bytes()
         meta = self._read_meta(model_id)
-        created = meta.get("created") if isinstance(meta.get("created"), str) and meta.get("created") else \
-            datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(timespec="seconds")
+        created = _text(meta.get("created")) or datetime.fromtimestamp(st.st_mtime, timezone.utc).isoformat(
+            timespec="seconds")
         table = description = upload = None
         if _CONVERTED_ID.match(model_id):
             upload = meta.get("upload")

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 from typing import Annotated
 
-import numpy as np
 from fastapi import APIRouter, Depends, Request
 
 from kinematics import usecases
-from kinematics.spatial.transforms import pose_components
+from kinematics.io.pose_records import pose_record
 
 from ..adapter import budget, error_responses, execute, parse_point, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, media_type, read_body, require_read_key, require_write_key
@@ -73,12 +72,6 @@ async def read_calibration_request(request: Request, settings: SettingsDep) -> t
     return req, None
 
 
-def _pose(T: np.ndarray) -> dict:
-    c = pose_components(T)
-    w, x, y, z = (float(v) for v in c["quaternion"])
-    return {"position": [float(v) for v in c["position"]], "quaternion": {"w": w, "x": x, "y": y, "z": z}}
-
-
 _BODY_DOC = request_body_doc("CalibrationRequest", CALIBRATION_EXAMPLES)
 _BODY_DOC["requestBody"]["content"]["text/csv"] = {
     "schema": {"type": "string", "description": "a header naming every joint, then x,y,z or x,y,z,qw,qx,qy,qz; "
@@ -116,9 +109,9 @@ def _calibrate(model_id: str, req: CalibrationRequest, csv: bytes | None, regist
                              rotation_weight=req.rotation_weight, name=req.name)
     new, _ = registry.add_urdf(cal.urdf.encode("utf-8"), name=cal.model.name)
     out = {
-        "model": new.id, "from": rec.id, "link": cal.link, "measure": cal.measure, "base": _pose(cal.base),
+        "model": new.id, "from": rec.id, "link": cal.link, "measure": cal.measure, "base": pose_record(cal.base),
         "point": None if cal.point is None else [float(v) for v in cal.point],
-        "tool": None if cal.tool is None else _pose(cal.tool),
+        "tool": None if cal.tool is None else pose_record(cal.tool),
         "identifiable": cal.identifiable, "parameters": cal.parameters, "unidentifiable": cal.unidentifiable,
         "condition_number": cal.condition_number, "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after,
         "max_before": cal.max_before, "max_after": cal.max_after, "rotation_rmse_before": cal.rotation_rmse_before,

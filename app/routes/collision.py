@@ -16,8 +16,7 @@ from fastapi.responses import Response
 
 from kinematics import usecases
 
-from ..adapter import budget, error_responses, execute, read_request
-from ..adapter import request_body_doc
+from ..adapter import budget, error_responses, execute, one_or_all, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
 from ..responses import FastJSONResponse
 from ..schemas import COLLISION_EXAMPLES, CollisionMatrixResponse, CollisionRequest, CollisionResponse
@@ -71,7 +70,7 @@ def _collision(model_id: str, req: CollisionRequest, registry, settings: Setting
     query = req.to_query(rec.model, budget(settings))
     a = usecases.collision(query, req.q, distance=req.distance, margin=req.margin,
                            samples=settings.collision_samples, cache_dir=cache_dir(registry))
-    pick = (lambda v: v) if a.is_batch else (lambda v: v[0])
+    pick = one_or_all(a.is_batch)
     body = {
         "model": rec.id, "joint_names": list(a.joint_names),
         "colliding": pick(a.colliding.tolist()),

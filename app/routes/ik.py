@@ -29,7 +29,7 @@ from kinematics.usecases.ik_all import parse_locked as read_locked
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
                        execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
-from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
 from ..npy import decode_targets
@@ -113,6 +113,12 @@ def parse_locked(values: list[str] | None) -> dict[str, float] | None:
         raise ProblemError(422, f"locked: {exc}", slug="validation-error", field="locked") from None
 
 
+def _npz_headers(answer, **extra: str) -> dict[str, str]:
+    """The headers of an ``.npz`` answer: ``X-Link``, ``extra``, then the joint order (``X-Joint-Names``)."""
+    names = names_headers([answer.link], answer.model.joint_names)
+    return {"X-Link": answer.link, **extra, **{k: v for k, v in names.items() if "Joint-Names" in k}}
+
+
 def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     tolerance = req.tolerance
@@ -128,9 +134,8 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
         return _all_answer(rec.id, answer, request)
     sol = answer.solution
     record_ik(sol.success, sol.iterations)
-    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
-        headers = names_headers([answer.link], answer.model.joint_names)
-        headers = {"X-Link": answer.link, **{k: v for k, v in headers.items() if "Joint-Names" in k}}
+    if wants_npz(request):
+        headers = _npz_headers(answer)
         arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
                   "rotation_error": sol.rotation_error, "iterations": sol.iterations}
         if answer.collision_free is not None:
@@ -153,10 +158,8 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
 
 def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
     """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
-    if NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower():
-        headers = names_headers([answer.link], answer.model.joint_names)
-        headers = {"X-Link": answer.link, "X-Family": answer.family, "X-Method": answer.method,
-                   **{k: v for k, v in headers.items() if "Joint-Names" in k}}
+    if wants_npz(request):
+        headers = _npz_headers(answer, **{"X-Family": answer.family, "X-Method": answer.method})
         arrays = {"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
                   "singular": answer.singular, "position_error": answer.position_error,
                   "rotation_error": answer.rotation_error}

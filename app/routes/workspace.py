@@ -20,7 +20,7 @@ from fastapi import APIRouter, Depends, Request
 from kinematics import usecases
 
 from ..adapter import budget, error_responses, execute, npy_response_doc, read_request, request_body_doc
-from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
+from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy, wants_npz
 from ..responses import NPY_MEDIA_TYPE, NPZ_MEDIA_TYPE, FastJSONResponse, NpyResponse, NpzResponse
 from ..schemas import WORKSPACE_EXAMPLES, WorkspaceRequest, WorkspaceResponse
 from ..settings import Settings
@@ -31,10 +31,6 @@ router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)]
 
 async def read_workspace_request(request: Request, settings: SettingsDep) -> WorkspaceRequest:
     return await read_request(request, settings, WorkspaceRequest, batch=None)
-
-
-def _wants_npz(request: Request) -> bool:
-    return NPZ_MEDIA_TYPE in request.headers.get("accept", "").lower()
 
 
 @router.post(
@@ -65,18 +61,18 @@ async def workspace(model_id: ModelId, req: Annotated[WorkspaceRequest, Depends(
 def _workspace(model_id: str, req: WorkspaceRequest, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
     query = req.to_query(rec.model, budget(settings))
-    if _wants_npz(request) or wants_npy(request):  # the cloud: bounded before it is sampled
+    if wants_npz(request) or wants_npy(request):  # the cloud: bounded before it is sampled
         query.budget.check_workspace_samples(req.samples)
         query.budget.check_result(req.samples * 4, f"a cloud of {req.samples} samples x 4")
     ws = usecases.workspace(query, samples=req.samples, voxel=req.voxel, measure=req.measure,
                             random_seed=req.random_seed, collision_free=req.collision_free,
                             collision_samples=settings.collision_samples, cache_dir=collision_cache_dir(registry))
     planar = ws.dimension < 3
-    if wants_npy(request) and not _wants_npz(request):
+    if wants_npy(request) and not wants_npz(request):
         return NpyResponse(np.column_stack([ws.points, ws.manipulability]),
                            headers={"X-Link": ws.link, "X-Columns": "x,y,z,manipulability",
                                     "X-Dropped": str(ws.dropped)})
-    if _wants_npz(request):
+    if wants_npz(request):
         arrays = {
             "points": ws.points, "manipulability": ws.manipulability, "voxel_centers": ws.voxel_centers,
             "voxel_index": ws.voxel_index, "voxel_manipulability": ws.voxel_manipulability,

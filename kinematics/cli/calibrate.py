@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import usecases
 from ..usecases import Query
+from ..io.pose_records import pose_record
 from ..spatial.transforms import pose_components
 from . import EXIT_OK, EXIT_USAGE, add_command
 from .pipeline import _fail, atomic_file, model_or_exit_code, parse_point
@@ -104,18 +105,12 @@ def run_calibrate(args) -> int:
     return EXIT_OK
 
 
-def _pose(T) -> dict:
-    c = pose_components(T)
-    w, x, y, z = (float(v) for v in c["quaternion"])
-    return {"position": [float(v) for v in c["position"]], "quaternion": {"w": w, "x": x, "y": y, "z": z}}
-
-
 def as_dict(cal) -> dict:
     """The result in the service's field names (``base`` and ``point`` / ``tool`` as FK accepts them)."""
     return {
-        "from": cal.source, "link": cal.link, "measure": cal.measure, "base": _pose(cal.base),
+        "from": cal.source, "link": cal.link, "measure": cal.measure, "base": pose_record(cal.base),
         "point": None if cal.point is None else [float(v) for v in cal.point],
-        "tool": None if cal.tool is None else _pose(cal.tool), "identifiable": cal.identifiable,
+        "tool": None if cal.tool is None else pose_record(cal.tool), "identifiable": cal.identifiable,
         "parameters": cal.parameters, "unidentifiable": cal.unidentifiable, "condition_number": cal.condition_number,
         "rmse_before": cal.rmse_before, "rmse_after": cal.rmse_after, "max_before": cal.max_before, "max_after": cal.max_after,
         "outliers": cal.outliers, "holdout": cal.holdout, "holdout_rmse": cal.holdout_rmse,

@@ -161,6 +161,7 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
 
         collision_filter(model, "avoid_collisions", samples=args.collision_samples)
     names = list(model.joint_names)
+    query = Query(model, link=link, verify=args.verify)  # the request shape, built once for every chunk
     total = unsolved = rows = colliding = 0
     family = method = "?"
     out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
@@ -169,10 +170,10 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
             out.write(",".join(["target", *names, "position_error", "rotation_error", "within_limits", "singular"]) + "\n")
         with open_input(args, model, source, in_fmt, targets=True) as targets:
             for start, T in targets:
-                a = api.ik(model, T, link=link, seed=seed, mode=args.mode, solutions="all", method=args.method,
+                a = api.ik(query, T, seed=seed, mode=args.mode, solutions="all", method=args.method,
                            limits=args.limits, locked=locked or None, position_tolerance=args.position_tolerance,
-                           rotation_tolerance=args.rotation_tolerance, verify=args.verify,
-                           avoid_collisions=args.avoid_collisions, **filter_options(args))
+                           rotation_tolerance=args.rotation_tolerance, avoid_collisions=args.avoid_collisions,
+                           **filter_options(args))
                 family, method = a.family, a.method
                 if a.colliding is not None:
                     colliding += int(a.colliding.sum())

@@ -15,10 +15,10 @@ import numpy as np
 
 from .. import api
 from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
-from . import EXIT_DISAGREE, EXIT_MODEL, EXIT_OK, EXIT_USAGE, add_command
+from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
 from .collision import add_filter_options, filter_options
 from .ik import parse_locked
-from .pipeline import ModelLoadError, _fail, _quietly, load_model, open_input
+from .pipeline import _fail, _quietly, model_or_exit_code, open_input
 
 
 def register(sub) -> None:
@@ -43,10 +43,9 @@ def register(sub) -> None:
 
 
 def run_ik_path(args) -> int:
-    try:
-        model = load_model(args)
-    except ModelLoadError as exc:
-        return _fail("ik-path", str(exc), EXIT_MODEL)
+    model = model_or_exit_code(args, "ik-path")
+    if isinstance(model, int):
+        return model
     locked = parse_locked(args.locked)
     if isinstance(locked, str):
         return _fail("ik-path", locked, EXIT_USAGE)

@@ -354,11 +354,19 @@ def chunk_times(rows, start: int, n: int):
     return times
 
 
-def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
+def stream_option_problem(args) -> str | None:
+    """What is wrong with ``--chunk`` or ``--verify K`` of a streamed command (:func:`_io_options`), or None."""
     if args.chunk < 1:
-        return _fail(command, "--chunk must be positive", EXIT_USAGE)
+        return "--chunk must be positive"
     if args.verify is not None and args.verify < 1:
-        return _fail(command, "--verify needs a positive number of rows", EXIT_USAGE)
+        return "--verify needs a positive number of rows"
+    return None
+
+
+def _stream_unguarded(args, command, compute, labels, kind, model, verify) -> int:
+    problem = stream_option_problem(args)
+    if problem:
+        return _fail(command, problem, EXIT_USAGE)
     source, in_fmt, dest, out_fmt = _endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     outside = 0
@@ -407,11 +415,11 @@ def run_fk(args) -> int:
     model = model_or_exit_code(args, "fk")
     if isinstance(model, int):
         return model
-    if args.dask:
-        return _run_dask(args, "fk", model, links=_resolve_links(model, args.links))
     links = _resolve_links(model, args.links)
+    if args.dask:
+        return _run_dask(args, "fk", model, links=links)
     if _output_format(args) == "mcap":
-        if args.links and _resolve_links(model, args.links) != list(model.links):
+        if args.links and links != list(model.links):
             return _fail("fk", "MCAP output is the TF tree of every link: drop --links (or give --links all)", EXIT_USAGE)
         links = list(model.links)
 

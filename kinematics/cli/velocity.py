@@ -14,13 +14,12 @@ import numpy as np
 
 from .. import api
 from ..usecases import Query
-from ..io.poses import tool_offset
 from ..io.result_files import ResultWriter, RowSampler
 from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
 from . import EXIT_OK, EXIT_USAGE, add_command
 from .pipeline import (_endpoints, _fail, _io_options, _quietly, _resolve_links, _timing, _verdict,
-                       model_or_exit_code, parse_point, verification_due)
+                       model_or_exit_code, parse_point, stream_option_problem, verification_due)
 from .progress import progress
 
 STATE_HELP = """input (INPUT, by extension; '-' reads CSV from standard input): per row the joint values, then
@@ -74,10 +73,9 @@ def run_velocity(args) -> int:
 
 
 def _run(args, model, links, point) -> int:
-    if args.chunk < 1:
-        return _fail("velocity", "--chunk must be positive", EXIT_USAGE)
-    if args.verify is not None and args.verify < 1:
-        return _fail("velocity", "--verify needs a positive number of rows", EXIT_USAGE)
+    problem = stream_option_problem(args)
+    if problem:
+        return _fail("velocity", problem, EXIT_USAGE)
     source, in_fmt, dest, out_fmt = _endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     reference = Reference(args.reference)
@@ -106,7 +104,7 @@ def _run(args, model, links, point) -> int:
 
     dof = model.dof
     err = pinocchio.compare_velocity(model, sampler.Q[:, :dof], sampler.Q[:, dof:], links, references=(reference,),
-                                     twists={reference: sampler.results}, tool=tool_offset(point=point))
+                                     twists={reference: sampler.results}, tool=query.T_tool)
     print(f"velocity: verify: {len(sampler.rows)} sampled rows x {len(links)} links, reference {reference.value} vs "
           f"{pinocchio.REFERENCE_NAME}: max twist error {err:.3g}", file=sys.stderr)
     return _verdict("velocity", err)

@@ -16,6 +16,19 @@ import numpy as np
 
 from ..spatial.transforms import pose_components
 
+
+def pose_record(T: np.ndarray) -> dict:
+    """One pose ``T`` (4, 4) as a request's ``base`` or ``tool`` field takes it: ``{"position": [x, y, z],
+    "quaternion": {"w", "x", "y", "z"}}`` (plain floats, w >= 0).
+
+    >>> pose_record(np.eye(4))
+    {'position': [0.0, 0.0, 0.0], 'quaternion': {'w': 1.0, 'x': 0.0, 'y': 0.0, 'z': 0.0}}
+    """
+    c = pose_components(T)
+    w, x, y, z = (float(v) for v in c["quaternion"])
+    return {"position": [float(v) for v in c["position"]], "quaternion": {"w": w, "x": x, "y": y, "z": z}}
+
+
 def pose_output(T: np.ndarray, links: list[str], fmt: str = "pose", is_batch: bool = True):
     """``poses`` of an FK answer from ``T`` (N, L, 4, 4): a list of per-configuration maps
     (one map when ``is_batch`` is false), or for ``compact`` one map of per-link arrays.

@@ -41,7 +41,8 @@ def workspace(query: Query | RobotModel, link: str | None = None, *, samples: in
     query = Query.of(query, **options)
     model = query.robot
     link = model.leaf_links[0] if query.link is None else query.link
-    require_one_dof(model, "the workspace").link_indices([link])
+    compiled = require_one_dof(model, "the workspace")
+    index = int(compiled.link_indices([link])[0])
     samples = int(samples)
     if samples < 1:
         raise KinematicsError(f"samples: {samples}; give at least 1")
@@ -49,8 +50,7 @@ def workspace(query: Query | RobotModel, link: str | None = None, *, samples: in
     keep = None
     if collision_free:
         free = collision_filter(model, "collision_free", samples=collision_samples, cache_dir=cache_dir)
-        compiled = require_one_dof(model, "the workspace")
-        path = compiled.kernel.path_columns(int(compiled.link_indices([link])[0]))
+        path = compiled.kernel.path_columns(index)
         off = np.setdiff1d(np.arange(model.dof), path)
         middle = middle_of_limits(model)
 
