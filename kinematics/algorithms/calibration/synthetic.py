@@ -91,7 +91,6 @@ def experiment(model: RobotModel, link: str, measure: str, n: int, rng: np.rando
     return truth, Q, truth.measure(Q, sigma, rng, outliers=outliers)
 
 
-
 def moved_origins(model: RobotModel, seed: int = 3, distance: float = 1e-3, angle: float = 1e-3) -> RobotModel:
     """``model`` as a per-robot calibration finds it: every moving joint's origin ``T_parent_joint``
     turned by ``angle`` rad about a random axis of the joint frame (``origin @ exp([w] angle)``), then
