@@ -8,7 +8,7 @@ from kinematics.errors import UnknownMeshError
 from kinematics.io.collision_geometry import ArchiveMeshes, mesh_source, vouch_meshes
 from kinematics.io.urdf import parse_urdf
 from kinematics.io.visual_geometry import visual_geometry, visual_mesh
-from tests.kinematics.io.test_collision_geometry import _refuse_files
+from tests.helpers import refuse_files
 
 HOSTILE = ["/etc/passwd.stl", "file:///etc/hostname.stl", "package://pkg/../../etc/x.stl", "../../x.dae",
            "package://example-robot-data/robots/../../../etc/x.obj", "/dev/zero.stl", "C:/x.stl"]
@@ -21,7 +21,7 @@ def _urdf(names) -> str:
 
 def test_a_plain_upload_never_opens_a_mesh(monkeypatch):
     model = parse_urdf(_urdf(HOSTILE + ["package://example-robot-data/robots/ur_description/meshes/ur5/visual/base.dae"]))
-    _refuse_files(monkeypatch)
+    refuse_files(monkeypatch)
     g = visual_geometry(model)
     meshes = [v for v in g.visuals["a"] if v.kind == "mesh"]
     assert len(meshes) == len(HOSTILE) + 1 and all(v.mesh is None and v.path is None for v in meshes)
