@@ -9,7 +9,7 @@ PORT   ?= 8000
 WORKERS ?= 1
 PYTEST_ARGS ?= -n auto
 
-.PHONY: serve test install bench bench-ik check docs clean
+.PHONY: serve test install bench bench-ik check docs docs-images clean
 
 $(STAMP): pyproject.toml setup.py Makefile
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -43,6 +43,11 @@ bench-ik: $(STAMP)
 # the documentation site, offline, into site/ (open site/index.html); --strict: a warning fails it
 docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
+# the viewer screenshots of docs/ (viewer_ik.png, ...) retaken by the browser tests (needs chromium and
+# chromium-driver); `make test` writes its screenshots to tests/artifacts/ only
+docs-images: $(STAMP)
+	$(BIN)/python scripts/refresh_docs_images.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache build site *.egg-info

@@ -129,14 +129,13 @@ def _frames_drawn(driver, count: int = 2) -> None:
         "const step = () => (--n <= 0 ? done() : requestAnimationFrame(step)); requestAnimationFrame(step);", count)
 
 
-def _docs_screenshot(driver, artifact: str, docs_path: Path) -> None:
-    """Once the page's last change is drawn: a screenshot saved as ``ARTIFACTS / artifact`` and copied to
-    ``docs_path``, the picture the documentation shows."""
+def _docs_screenshot(driver, artifact: str) -> None:
+    """Once the page's last change is drawn: a screenshot saved as ``ARTIFACTS / artifact``. The tests
+    never write a tracked file: ``make docs-images`` (scripts/refresh_docs_images.py) runs them and
+    copies these shots to the pictures the documentation shows."""
     _frames_drawn(driver)
     ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / artifact
-    driver.save_screenshot(str(shot))
-    docs_path.write_bytes(shot.read_bytes())
+    driver.save_screenshot(str(ARTIFACTS / artifact))
 
 
 def _changed_fraction(before, after) -> float:
@@ -358,7 +357,6 @@ IK_ROTATION_TOL = 1e-5
 UR5_Q_KNOWN = [0.3, -1.1, 1.3, -0.6, 0.9, 0.4]
 #: a target this far from the UR5's base is out of its reach (about 0.95 m)
 UNREACHABLE_OFFSET = [5.0, 0.0, 0.0]
-DOCS_SCREENSHOT = REPO / "docs" / "viewer_ik.png"
 
 
 def _ur5_fk(q, link: str = "tool0") -> np.ndarray:
@@ -446,7 +444,7 @@ def test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one(serv
           "the pose panel at the target")
     labels = browser.execute_script("return [...document.querySelectorAll('#sliders .value')].map(e => e.textContent)")
     assert [float(t.split()[0]) for t in labels] == pytest.approx(q, abs=10 ** -PANEL_DECIMALS)
-    _docs_screenshot(browser, "viewer_ik_solved.png", DOCS_SCREENSHOT)
+    _docs_screenshot(browser, "viewer_ik_solved.png")
 
     # a target 5 m away: not reachable, the best effort is shown, the sliders stay finite
     far = (np.asarray(position) + UNREACHABLE_OFFSET).tolist()

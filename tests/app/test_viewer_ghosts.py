@@ -9,7 +9,6 @@ import pytest
 
 from tests.app.test_viewer import (UR5_Q_KNOWN, _docs_screenshot, _enable_ik, _open, _quaternion,  # noqa: F401
                                    _severe_console, _state, _ur5_fk, _wait, browser, needs_browser, server)
-from tests.paths import REPO
 
 try:
     from selenium.webdriver.common.actions.action_builder import ActionBuilder
@@ -17,8 +16,6 @@ try:
 except ImportError:  # pragma: no cover - needs_browser skips the tests
     pass
 
-GHOSTS_SCREENSHOT = REPO / "docs" / "viewer_ik_ghosts.png"
-CALIBRATION_SCREENSHOT = REPO / "docs" / "viewer_calibration.png"
 #: a UR5 configuration whose pose has 8 solutions, some of them in self-collision (found by search
 #: with POST /ik and POST /collision; the test checks both properties against the service)
 UR5_Q_GHOSTS = [-2.45, -1.87, 2.36, -1.17, -1.18, 0.48]
@@ -105,7 +102,7 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     projection = _js(browser, "window.viewerTest.projectLinks()")
     assert all(0 <= x <= projection["width"] and 0 <= y <= projection["height"]
                for x, y, _ in projection["points"].values())
-    _docs_screenshot(browser, "viewer_ik_ghosts.png", GHOSTS_SCREENSHOT)
+    _docs_screenshot(browser, "viewer_ik_ghosts.png")
     assert _severe_console(browser) == []
 
 
@@ -205,7 +202,7 @@ def test_the_calibration_tab_draws_a_bar_per_measurement(server, browser):
     assert again["residuals"]["before"] == pytest.approx(cal["residuals"]["before"], rel=1e-9)
 
     browser.find_element(By.ID, "btn-fit").click()             # the wider panel left the arm off-centre
-    _docs_screenshot(browser, "viewer_calibration.png", CALIBRATION_SCREENSHOT)
+    _docs_screenshot(browser, "viewer_calibration.png")
     assert _severe_console(browser) == []
 
 

@@ -1,0 +1,53 @@
+"""Refresh the viewer screenshots the documentation shows (``make docs-images``).
+
+The browser tests (``tests/app/test_viewer*.py``, headless Chromium: ``apt-get install chromium
+chromium-driver``) save their screenshots in ``tests/artifacts/`` only, so that ``make test`` never
+rewrites a tracked file. This script runs the tests that take the documentation's pictures and
+copies each shot over its picture in ``docs/``: run it when the viewer's look changed, and commit
+the pictures it wrote.
+
+    python scripts/refresh_docs_images.py          # from the repository root
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+ARTIFACTS = REPO / "tests" / "artifacts"
+#: the test that takes each picture: test id, its screenshot in tests/artifacts, the picture in docs/
+PICTURES = (
+    ("tests/app/test_viewer.py::test_ik_target_solves_a_reachable_target_and_reports_an_unreachable_one",
+     "viewer_ik_solved.png", "viewer_ik.png"),
+    ("tests/app/test_viewer_ghosts.py::test_ghosts_are_every_solution_and_a_click_takes_one",
+     "viewer_ik_ghosts.png", "viewer_ik_ghosts.png"),
+    ("tests/app/test_viewer_ghosts.py::test_the_calibration_tab_draws_a_bar_per_measurement",
+     "viewer_calibration.png", "viewer_calibration.png"),
+)
+
+
+def main() -> int:
+    for _, shot, _ in PICTURES:
+        (ARTIFACTS / shot).unlink(missing_ok=True)
+    tests = [test for test, _, _ in PICTURES]
+    # -rs names a skipped test (no Chromium); a skip leaves its shot missing, reported below
+    code = subprocess.call([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:randomly", "-rs", *tests],
+                           cwd=REPO)
+    if code != 0:
+        print(f"refresh_docs_images: the tests failed (exit {code}); docs/ left as it was", file=sys.stderr)
+        return code
+    missing = [shot for _, shot, _ in PICTURES if not (ARTIFACTS / shot).exists()]
+    if missing:
+        print(f"refresh_docs_images: no screenshot {', '.join(missing)} (were the browser tests skipped? "
+              "apt-get install chromium chromium-driver); docs/ left as it was", file=sys.stderr)
+        return 1
+    for _, shot, picture in PICTURES:
+        (REPO / "docs" / picture).write_bytes((ARTIFACTS / shot).read_bytes())
+        print(f"docs/{picture} <- tests/artifacts/{shot}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
