@@ -95,7 +95,7 @@ WORKDIR /home/kin
 USER kin
 # Compile the numba kernels now, into the user's cache (~/.cache/numba), so that the server
 # starts in about a second; on a machine with another CPU, numba compiles them again at start.
-RUN python -c 'import kinematics; kinematics.warm_up()'
+RUN kinematics warm-up
 EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=20s --retries=3 \
     CMD ["python", "-c", "import os, sys, urllib.request; r = urllib.request.urlopen('http://127.0.0.1:%s/health' % os.environ.get('PORT', '8000'), timeout=4); sys.exit(r.status != 200)"]

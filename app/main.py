@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import importlib
 import logging
+import threading
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
@@ -19,7 +20,6 @@ from fastapi.openapi.utils import get_openapi
 from pydantic.json_schema import models_json_schema
 
 import kinematics
-from kinematics import api
 from kinematics.io.catalogue import default_catalogue
 
 from .docs import install_docs
@@ -30,6 +30,7 @@ from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
 from .schemas import REQUEST_SCHEMAS
 from .settings import Settings
+from .warm import prepare_routes, process_warm_up
 
 log = logging.getLogger("app")
 
@@ -186,6 +187,11 @@ EXPOSED_HEADERS = ["Location", "X-Request-ID", "X-Links", "X-Joint-Names", "X-Li
                    "X-Max-Rotation-Error", "X-Max-Jacobian-Error", "X-Twist-References", "X-Max-Velocity-Error", "X-Columns"]
 
 
+def _report_decoder(future) -> None:
+    if not future.cancelled() and future.exception() is not None:  # large bodies are then decoded in the worker (app.heavy)
+        log.warning("the decoder process did not start (%s): large bodies are decoded in the worker", future.exception())
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service. ``settings`` default to the environment (``KIN_*``)."""
     settings = settings if settings is not None else Settings()
@@ -195,18 +201,24 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         data_dir = settings.resolved_data_dir()
         decoder = start_decoder(settings)  # the large-body decoder process starts while the rest warms up
-        api.warm_up()  # the URDF parser stack and the compiled kernel now, not on the first request
+        background = settings.warm_up == "background"
+        warm_up = process_warm_up()  # every operation's compiled kernels, not on a first request (app.warm)
+        warm_up.start(background=background)
+        if background:  # the routes' own state too (app.warm.prepare_routes), beside the kernels
+            threading.Thread(target=prepare_routes, args=(app,), name="prepare-routes", daemon=True).start()
+        else:
+            prepare_routes(app)
         configure_process(settings)  # heavy work off the loop at a lower priority (app.heavy)
         registry = Registry(default_catalogue(), data_dir, max_links=settings.max_links)
         loaded = registry.load_stored()
         app.state.registry = registry
         log.info("registry: %d bundled models, %d stored models in %s", len(registry.catalogue.ids()), loaded, data_dir)
         if decoder is not None:
-            try:
-                await asyncio.wrap_future(decoder)
-            except Exception as exc:  # noqa: BLE001 - large bodies are then decoded here (app.heavy)
-                log.warning("the decoder process did not start (%s): large bodies are decoded in the worker", exc)
+            decoder.add_done_callback(_report_decoder)
+            if not background:  # else it gets ready while the worker answers (a large body meanwhile waits for it)
+                await asyncio.wait([asyncio.wrap_future(decoder)])
         yield
+        warm_up.stop()
 
     app = FastAPI(
         title="Kinematics service", version=kinematics.__version__, description=DESCRIPTION,

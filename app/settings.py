@@ -40,6 +40,10 @@ variable                   default                     meaning
 ``KIN_SHUTDOWN_TIMEOUT``   30                          seconds in-flight requests get to finish
                                                        after SIGTERM (``kinematics serve``,
                                                        the container); then they are cancelled
+``KIN_WARM_UP``            ``background``              the compiled kernels' warm-up (app/warm.py):
+                                                       in a thread while the worker answers
+                                                       (/health: ``warm_up``), or
+                                                       ``before_serving``
 ``KIN_CORS_ORIGINS``       (none)                      comma-separated or JSON list
 ``KIN_LOG_LEVEL``          ``info``                    logging level of the ``app`` logger
 ``KIN_LOG_FORMAT``         ``text``                    ``json``: access and error logs as one JSON
@@ -111,6 +115,9 @@ class Settings(BaseSettings):
                                                   "process of the worker (0: never)")
     shutdown_timeout: float = Field(default=30.0, ge=0, le=3600,
                                     description="seconds in-flight requests get to finish after SIGTERM")
+    warm_up: Literal["background", "before_serving"] = Field(
+        default="background", description="load the compiled kernels in a thread while answering (/health tells "
+                                          "when they are loaded), or before the worker answers anything")
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     log_level: str = "info"
     log_format: Literal["text", "json"] = Field(

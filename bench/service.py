@@ -72,7 +72,8 @@ def uvicorn_server(workers: int = 1, env: dict | None = None):
                 if proc.poll() is not None:
                     raise RuntimeError(f"uvicorn exited: {proc.stderr.read().decode(errors='replace')[-2000:]}")
                 try:
-                    if httpx.get(url + "/health", timeout=1.0).status_code == 200:
+                    r = httpx.get(url + "/health", timeout=1.0)
+                    if r.status_code == 200 and r.json().get("warm_up") != "running":  # kernels loaded (app/warm.py)
                         break
                 except httpx.HTTPError:
                     pass

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.paths import FIXTURES  # noqa: F401 - tests import it from here too
+
+# the tests' services load the compiled kernels before they answer (app/warm.py): no warm-up thread runs beside
+# a test; tests/app/test_warm_up.py checks the default, in the background
+os.environ.setdefault("KIN_WARM_UP", "before_serving")
 
 
 @pytest.fixture

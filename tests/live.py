@@ -50,7 +50,8 @@ class LiveServer:
     def start(self) -> "LiveServer":
         self.port = free_port()
         env = {k: v for k, v in os.environ.items() if not k.startswith("KIN_")}
-        env.update({"KIN_DATA_DIR": str(self.data_dir), "PYTHONUNBUFFERED": "1"}, **self.extra_env)
+        env.update({"KIN_DATA_DIR": str(self.data_dir), "KIN_WARM_UP": "before_serving", "PYTHONUNBUFFERED": "1"},
+                   **self.extra_env)
         cmd = ([sys.executable, "-m", "app"] if self.serve else [sys.executable, "-m", "uvicorn", "app.main:app"]) + [
             "--host", "127.0.0.1", "--port", str(self.port), "--workers", str(self.workers)]
         self._log = open(self.log_path, "ab")

@@ -9,6 +9,7 @@ from kinematics.usecases import reference_name
 
 from ..deps import RegistryDep
 from ..schemas import Health
+from ..warm import process_warm_up
 
 router = APIRouter(tags=["health"])
 
@@ -18,6 +19,7 @@ REFERENCE_VERSION = reference_name().removeprefix("pinocchio ")
 
 @router.get("/health", response_model=Health)
 async def health(registry: RegistryDep) -> Health:
-    """Liveness: status, service version, Pinocchio version and the number of bundled models."""
+    """Liveness: status, service version, Pinocchio version, the number of bundled models and whether
+    the compiled kernels are loaded yet (``warm_up``)."""
     return Health(version=kinematics.__version__, pinocchio_version=REFERENCE_VERSION,
-                  bundled_models=len(registry.catalogue.ids()))
+                  bundled_models=len(registry.catalogue.ids()), warm_up=process_warm_up().state)

@@ -13,6 +13,10 @@ class Health(BaseModel):
     version: str = Field(description="version of the service")
     pinocchio_version: str = Field(description="version of Pinocchio used by verify=true")
     bundled_models: int = Field(description="number of bundled (catalogue) models")
+    warm_up: Literal["pending", "running", "done", "failed"] = Field(
+        default="done", description="the compiled kernels' warm-up of the worker that answered: `running` while it "
+                                    "loads them (or, on a first start on a machine, compiles them: minutes), when the "
+                                    "first request of an operation may be slow; `done` once every operation is ready")
 
 
 # ---------------------------------------------------------------------- models

@@ -30,7 +30,7 @@ from .ik import IKAnswer, ik
 from .ik_all import IKAllAnswer, ik_all, ik_family, ik_path
 from .jacobian import JacobianAnswer, jacobian
 from .models import (DESCRIPTION_KINDS, compiled_models, description_urdf, dh_form, load_model,
-                     model_from_description, reference_name, screws, warm_up)
+                     model_from_description, reference_name, screws)
 from .query import (LIMIT_POLICIES, UNBOUNDED, Answer, Budget, Query, Verification, joint_batch, model_for,
                     resolve_links)
 from .symbolic import (DEFAULT_SYMBOLIC_TIMEOUT, SYMBOLIC_FORMATS, SYMBOLIC_WHAT, SymbolicAnswer, symbolic,
@@ -38,6 +38,7 @@ from .symbolic import (DEFAULT_SYMBOLIC_TIMEOUT, SYMBOLIC_FORMATS, SYMBOLIC_WHAT
 from .task import TaskAnswer, task
 from .velocity import VelocityAnswer, velocity
 from .visual import visual_geometry, visual_mesh
+from .warm import warm_up
 from .workspace import workspace
 
 __all__ = [

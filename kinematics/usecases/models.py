@@ -1,5 +1,5 @@
 """Models: loading one (catalogue id, URDF, DH table, xacro, MJCF), model descriptions (DH, PoE,
-zero-configuration axes), a model's screws and DH form, and the warm-up of the compiled kernels."""
+zero-configuration axes), a model's screws and DH form (the warm-up of the compiled kernels: :mod:`.warm`)."""
 
 from __future__ import annotations
 
@@ -10,14 +10,9 @@ from ..engine.poe import require_one_dof
 from ..errors import KinematicsError
 from ..io.catalogue import default_catalogue
 from ..io.dh_table import load_table, model_from_table
-from ..io.urdf import load_urdf, parse_urdf
+from ..io.urdf import load_urdf
 from ..model.robot import RobotModel
-from .fk import fk
-from .ik import ik
-from .jacobian import jacobian
-from .query import model_for
-from .velocity import velocity
-from .workspace import workspace
+
 
 def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str | None = None,
                xacro: str | None = None, mjcf: str | None = None, args: dict[str, Any] | None = None,
@@ -43,40 +38,6 @@ def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str 
 
         return load_mjcf(mjcf)
     return model_from_table(load_table(dh))
-
-
-#: A one-joint robot for :func:`warm_up`.
-_WARM_UP_URDF = """<robot name="warm_up">
-  <link name="base"/><link name="arm"/>
-  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
-    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
-</robot>"""
-
-
-def warm_up() -> None:
-    """Import the URDF parser stack and load the compiled kernels now (FK, Jacobian, velocity, workspace, IK, rotation
-    to quaternion, FK and Jacobians below a floating base; compiled on the first run on a machine, a few seconds, then read from
-    numba's disk cache), so that a server's first request pays for neither."""
-    model = parse_urdf(_WARM_UP_URDF)
-    pose = fk(model, [0.5]).poses[0, 0]
-    fk(model, [0.0]).components()
-    jacobian(model, [0.0], link="arm")
-    fk(model, [[0.5], [0.0]])  # a batch (one row takes the single-configuration entries of engine/single.py)
-    jacobian(model, [[0.0], [0.5]], link="arm")
-    velocity(model, [0.0], [0.0])
-    workspace(model, "arm", samples=8)
-    ik(model, pose, link="arm")
-    # every IK solution: the closed forms of three parallel axes and of spherical wrists (a revolute and a
-    # prismatic third joint) and the compiled polish, limits ignored and with every 2 pi copy (engine/ik_fast.py,
-    # engine/ik_polish.py: a server's first every-solution request would compile them for half a minute)
-    for preset in ("ur5_dh", "puma560_standard", "stanford_arm"):
-        arm = default_catalogue().get(preset)
-        target = fk(arm, [0.3] * arm.dof).poses[0, -1]
-        ik(arm, target, solutions="all", limits="ignore")
-        ik(arm, target, solutions="all", limits="respect")
-    # a floating base: the kernels below a floating root joint (engine/rooted.py)
-    fk(model, model_for(model, floating_base=True).neutral, floating_base=True)
-    jacobian(model, model_for(model, floating_base=True).neutral, link="arm", floating_base=True)
 
 
 def compiled_models() -> tuple[int, int]:
