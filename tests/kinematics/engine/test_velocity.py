@@ -23,9 +23,9 @@ TOOL = make_transform(rpy_to_matrix(np.array([0.3, -0.5, 1.1])), np.array([0.1, 
 
 
 def _catalogue_ids():
-    from kinematics import default_catalogue
+    from tests.catalogue_sample import catalogue_ids
 
-    return default_catalogue().ids()
+    return catalogue_ids()  # a fixed sample; every model with KIN_TEST_FULL_CATALOGUE=1
 
 
 def _jacobian_products(poe, Q, Qd, links, tool=None):
