@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..errors import MissingExtraError
 from ..io.catalogue import default_catalogue
 from ..io.urdf import parse_urdf
 from .calibration import calibration_poses
@@ -102,7 +103,7 @@ def _floating_base() -> None:
     jacobian(model, neutral, link="arm", floating_base=True)
 
 
-def _collisions_paths_calibration() -> None:
+def _collisions_and_paths() -> None:
     arm = parse_urdf(_BOXES_URDF)
     q = [0.2, 0.4, -0.3]
     collision_matrix(arm, samples=_BOX_SAMPLES)
@@ -114,7 +115,21 @@ def _collisions_paths_calibration() -> None:
     moved[2, 3] -= 0.05
     ik_path(arm, np.stack([target, moved]), seed=q, link="l3", avoid_collisions=True,
             collision_samples=_BOX_SAMPLES)
-    calibration_poses(arm, 6, link="l3")
+
+
+def _calibration() -> None:
+    calibration_poses(parse_urdf(_BOXES_URDF), 6, link="l3")
+
+
+def _if_installed(step: Callable[[], None]) -> Callable[[], None]:
+    """``step``, which does nothing when the extra it needs is not installed (nothing to warm up then)."""
+    def run() -> None:
+        try:
+            step()
+        except MissingExtraError:
+            pass
+
+    return run
 
 
 def _catalogue() -> None:
@@ -136,7 +151,8 @@ STEPS: tuple[tuple[str, Callable[[], None]], ...] = (
     ("one IK solution, task vectors", _one_solution),
     ("every IK solution (closed forms, polish), IK families", _every_solution),
     ("a floating base", _floating_base),
-    ("self-collision, collision-free IK and paths, calibration poses", _collisions_paths_calibration),
+    ("self-collision, collision-free IK and paths", _if_installed(_collisions_and_paths)),
+    ("calibration poses", _if_installed(_calibration)),
 )
 #: the step a long-running process adds (nothing of it stays on disk): the bundled models, read and compiled
 CATALOGUE_STEP = ("the bundled models, read and compiled", _catalogue)
