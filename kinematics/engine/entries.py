@@ -159,14 +159,30 @@ def _per_thread(ftab: np.ndarray):
     return local, get
 
 
+def _compiled_entry(entry, itab, ftab, shape, dof):
+    """The compiled ``entry`` for exactly the argument types :func:`_bind` passes, callable without
+    numba's dispatcher (``overloads[signature].entry_point``: no typing of the four arguments on each
+    call, a third of a single call's cost); the dispatcher itself if this numba has no such attribute."""
+    args = (itab, ftab.copy(), np.empty(shape), np.zeros(dof))
+    entry(*args)  # compiled, or loaded from the cache, for these types
+    try:
+        return entry.overloads[tuple(nb.typeof(a) for a in args)].entry_point
+    except (AttributeError, KeyError):  # pragma: no cover - another numba's internals
+        return entry
+
+
 def _bind(entry, itab, ftab, shape, dof):
     """``f(q, out=None)`` calling the compiled ``entry`` on pre-bound tables, with each thread's
-    own scratch copy of ``ftab`` (the hot path: no lookup beyond the ones below)."""
+    own scratch copy of ``ftab`` (the hot path: no lookup beyond the ones below). A ``q`` that is
+    a C-contiguous float64 vector of ``dof`` values and no ``out`` take the compiled function
+    directly (:func:`_compiled_entry`); other arguments go through numba's dispatcher, which
+    checks their types."""
     local, mine = _per_thread(ftab)
-    ndarray, f64, empty, qshape = np.ndarray, np.dtype(np.float64), np.empty, (dof,)
+    ndarray, f64, empty, qshape, qstrides = np.ndarray, np.dtype(np.float64), np.empty, (dof,), (8,)
+    direct = _compiled_entry(entry, itab, ftab, shape, dof)
 
     def call(q, out=None):
-        if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape:
+        if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape or q.strides != qstrides:
             q = _coerce(q, dof)
         try:
             f = local.ftab
@@ -174,7 +190,9 @@ def _bind(entry, itab, ftab, shape, dof):
             f = mine()
         if out is None:
             out = empty(shape)
-        entry(itab, f, out, q)
+            direct(itab, f, out, q)
+        else:
+            entry(itab, f, out, q)
         return out
 
     return call

@@ -116,3 +116,20 @@ def test_a_batch_of_one_is_still_cancellable_and_names_unknown_links(catalogue):
             poe.fk(q, ["tool9"])
         with pytest.raises(UnknownLinkError, match="tool9"):
             poe.jacobian(q, "tool9")
+
+
+def test_every_form_of_q_gives_the_contiguous_vectors_answer(catalogue):
+    """A contiguous float64 vector takes the compiled function directly (no dispatcher); a strided,
+    read-only, Fortran-ordered or sliced-from-a-matrix q must give the same bits, never a read of the
+    wrong elements."""
+    poe = compile_model(catalogue.get("ur5"))
+    fk1, J1 = fk_function(poe, "tool0"), jacobian_function(poe, "tool0", "world")
+    q = np.array([0.1, 0.2, -0.3, 0.4, 0.5, -0.6])
+    wide = np.zeros(12)
+    wide[::2] = q
+    readonly = q.copy()
+    readonly.setflags(write=False)
+    column = np.asfortranarray(np.stack([q, -q], axis=1))[:, 0]
+    for form in (wide[::2], readonly, column, q[::-1][::-1], list(q)):
+        assert np.array_equal(fk1(form), fk1(q)) and np.array_equal(J1(form), J1(q))
+    assert np.array_equal(fk1(q), poe.fk(q[None], ["tool0"])[0, 0])
