@@ -11,9 +11,11 @@ kernels' arithmetic operation for operation, then run the batch kernels' own ``_
 ``_jacobian_row``: the answer equals the batch row bit for bit (``tests/kinematics/engine/test_single.py``).
 A batch of one row (``PoEModel.fk`` / ``jacobian`` with one configuration) runs the same entries.
 
-What bounds it: the compiled work is ~0.1-0.2 µs for a 6-joint arm; the rest is the fixed
-cost of entering numba from Python (its dispatcher types each argument: ~0.05 µs each, ~0.3
-µs in all) and of allocating the (4, 4) result (~0.15 µs; pass ``out=`` to reuse one).
+What bounds it: the compiled work (~0.3 µs for a 6-joint arm on an idle machine), unboxing the
+four arrays into the compiled code (~0.15 µs: a contiguous float64 ``q`` skips numba's dispatcher,
+which typed each argument on every call, and calls the compiled entry's wrapper directly), allocating
+the (4, 4) result (~0.15 µs) and the wrapper's own checks. With ``out=`` the call goes through the
+dispatcher, which checks the given array's type.
 ``bench/single.py`` (``python -m bench.run_all --only single``) measures it against Pinocchio's
 single call, with the spread over repeated runs.
 
