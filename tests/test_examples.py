@@ -179,3 +179,15 @@ def test_example_12_collision_free():
     assert "plain answer free: False" in out and "with avoid_collisions: success True free True" in out
     assert "stopped {'index': 43, 'reason': 'collision'}" in out
     assert re.search(r"workspace: \d+ free samples kept, [1-9]\d* in self-collision dropped", out)
+
+
+def test_example_13_client_every_operation(tmp_path):
+    with LiveServer(tmp_path / "data", tmp_path / "uvicorn.log") as live:
+        out = run_example("13_client_every_operation.py", {"KIN_BASE_URL": live.url})
+    assert "family: three_parallel solutions: 256" in out
+    assert "path: (11, 6) complete: True" in out
+    assert "calibrated: u-..." in out and deviation(out, "rmse") < 1e-9
+    assert "panda colliding: [False False] pairs checked: 23" in out
+    assert "workspace: area 2.519 m^2 converged True cloud (20000, 3)" in out
+    assert "T(q) of planar_2r, x: cos(q1)/2 + 2*cos(q1 + q2)/5" in out
+    assert "task: ['px', 'py', 'pz', 'phi', 'theta', 'psi'] (6, 6)" in out
