@@ -11,20 +11,9 @@ import { requestRender, resize } from "./scene.js";
 import { buildQdotInputs } from "./velocity.js";
 import { clearWorkspace } from "./workspace.js";
 import { defaultLink, openingCandidates, openingPose } from "./defaults.js";
+import { fillLinkOptions } from "./link-options.js";
 
 // ---------------------------------------------------------------------------- links panel
-// A <select> filled with the model's links (label(link): the text shown), the default link selected.
-export function fillLinkOptions(select, info, label = (link) => link) {
-  select.replaceChildren();
-  for (const link of info.links) {
-    const opt = document.createElement("option");
-    opt.value = link;
-    opt.textContent = label(link);
-    select.appendChild(opt);
-  }
-  select.value = defaultLink(info);
-}
-
 export function buildLinkList(info) {
   fillLinkOptions($("link-list"), info);
   state.selectedLink = defaultLink(info);
