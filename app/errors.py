@@ -9,6 +9,7 @@ exceptions (:mod:`kinematics.errors`) map to statuses by class, here and nowhere
 from __future__ import annotations
 
 import contextvars
+import functools
 import logging
 import re
 from typing import Any
@@ -189,7 +190,12 @@ def _schema_names() -> set[str]:
 
 def _is_label(part: Any) -> bool:
     """Whether a location part is a union member's label ("list[float]", "BasePositionQuaternion"), not a field."""
-    return isinstance(part, str) and ("[" in part or part in _SCALAR_LABELS or part in _schema_names())
+    return isinstance(part, str) and _is_label_name(part)
+
+
+@functools.lru_cache(maxsize=1024)  # a batch's errors repeat the same few names; the models are all defined
+def _is_label_name(part: str) -> bool:
+    return "[" in part or part in _SCALAR_LABELS or part in _schema_names()
 
 
 def _field(loc: tuple) -> str:
