@@ -12,7 +12,7 @@ from pathlib import Path
 import fastapi_offline
 from fastapi import FastAPI, Request
 from fastapi.openapi.docs import get_redoc_html, get_swagger_ui_html, get_swagger_ui_oauth2_redirect_html
-from fastapi.responses import HTMLResponse
+from fastapi.responses import HTMLResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 
 DOCS_ASSETS_DIR = Path(fastapi_offline.__file__).resolve().parent / "static"
@@ -20,7 +20,7 @@ DOCS_ASSETS_URL = "/static/docs"
 
 
 def install_docs(app: FastAPI, docs_url: str = "/docs", redoc_url: str = "/redoc") -> None:
-    """Mount the assets and add ``/docs``, ``/docs/oauth2-redirect`` and ``/redoc``."""
+    """Mount the assets and add ``/docs``, ``/docs/oauth2-redirect``, ``/redoc``, and ``/`` (a redirect to ``/docs``)."""
     app.mount(DOCS_ASSETS_URL, StaticFiles(directory=DOCS_ASSETS_DIR), name="docs-assets")
     oauth2_url = f"{docs_url}/oauth2-redirect"
 
@@ -45,3 +45,8 @@ def install_docs(app: FastAPI, docs_url: str = "/docs", redoc_url: str = "/redoc
     async def redoc(request: Request) -> HTMLResponse:
         return page(request, partial(get_redoc_html, with_google_fonts=False), "ReDoc",
                     redoc_js_url="redoc.standalone.js", redoc_favicon_url="favicon.png")
+
+    @app.get("/", include_in_schema=False)
+    async def front_door(request: Request) -> RedirectResponse:
+        """The service's address in a browser: its API pages (the viewer is at /viewer)."""
+        return RedirectResponse(f"{request.scope.get('root_path', '')}{docs_url}", status_code=307)

@@ -9,6 +9,7 @@ exceptions (:mod:`kinematics.errors`) map to statuses by class, here and nowhere
 from __future__ import annotations
 
 import contextvars
+import functools
 import logging
 import re
 from typing import Any
@@ -169,15 +170,110 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     return problem(status, title, detail, slug, model=model_id, **names_in(detail))
 
 
+_SOURCES = ("body", "query", "path", "header")
+#: the labels pydantic gives a union's scalar members in an error's location
+_SCALAR_LABELS = frozenset({"str", "int", "float", "bool", "none"})
+
+
+def _schema_names() -> set[str]:
+    """The class names of every pydantic model (a union's model members are labelled by them)."""
+    from pydantic import BaseModel
+
+    names, todo = set(), [BaseModel]
+    while todo:
+        for sub in todo.pop().__subclasses__():
+            if sub.__name__ not in names:
+                names.add(sub.__name__)
+                todo.append(sub)
+    return names
+
+
+def _is_label(part: Any) -> bool:
+    """Whether a location part is a union member's label ("list[float]", "BasePositionQuaternion"), not a field."""
+    return isinstance(part, str) and _is_label_name(part)
+
+
+@functools.lru_cache(maxsize=1024)  # a batch's errors repeat the same few names; the models are all defined
+def _is_label_name(part: str) -> bool:
+    return "[" in part or part in _SCALAR_LABELS or part in _schema_names()
+
+
 def _field(loc: tuple) -> str:
-    parts = [str(p) for p in loc if p not in ("body", "query", "path", "header")]
-    # drop the union-member labels pydantic inserts (e.g. "list[float]")
-    return ".".join(p for p in parts if "[" not in p)
+    """The field an error is about, as a client writes it: no source, no union labels (internal class names)."""
+    return ".".join(str(p) for p in loc if p not in _SOURCES and not _is_label(p))
 
 
-def _branch(loc: tuple) -> str | None:
-    """The union member an error belongs to (pydantic puts its label in the location)."""
-    return next((str(p) for p in loc if "[" in str(p)), None)
+def _union(loc: tuple) -> tuple[tuple, str] | None:
+    """(the union's location, the member's label) of an error inside a union member, else None."""
+    for i, part in enumerate(loc):
+        if _is_label(part):
+            return tuple(loc[:i]), str(part)
+    return None
+
+
+#: errors that say the input has another shape than the member (not a wrong value inside it)
+_SHAPE_ERRORS = frozenset({"missing", "extra_forbidden", "model_type", "model_attributes_type", "list_type",
+                           "dict_type", "tuple_type"})
+
+
+def _best_members(errors: list[dict]) -> dict[tuple, str]:
+    """Per union, the member the input most nearly is: fewest shape mismatches at its top, then
+    fewest errors, then the deepest (the member whose fields matched before something went wrong).
+    ``{"position": .., "quaternion": [0, 0, 1]}`` is a position-quaternion pose with a short
+    quaternion, not an xyz-rpy pose missing ``xyz``."""
+    scores: dict[tuple, dict[str, list]] = {}
+    for e in errors:
+        union = _union(tuple(e.get("loc", ())))
+        if union is None:
+            continue
+        where, label = union
+        depth = len(e.get("loc", ())) - len(where) - 1
+        score = scores.setdefault(where, {}).setdefault(label, [0, 0, 0])
+        score[0] += e.get("type") in _SHAPE_ERRORS and depth <= 1
+        score[1] += 1
+        score[2] = min(score[2], -depth)
+    return {where: min(members, key=lambda label: tuple(members[label])) for where, members in scores.items()}
+
+
+def _fields_of(annotation: Any) -> list:
+    """The pydantic models an annotation holds (through unions, lists and dicts)."""
+    from typing import get_args
+
+    from pydantic import BaseModel
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in get_args(annotation) for m in _fields_of(arg)]
+
+
+def _known_fields(schema: Any, loc: tuple) -> list[str]:
+    """The field names of the object holding the extra key at ``loc`` in ``schema`` (a model), [] if unknown."""
+    models = _fields_of(schema)
+    for part in [p for p in loc if p not in _SOURCES][:-1]:
+        if isinstance(part, int):
+            continue
+        named = [m for m in models if m.__name__ == part]
+        if named or _is_label(part):
+            models = named or models
+            continue
+        models = [m for model in models if part in model.model_fields
+                  for m in _fields_of(model.model_fields[part].annotation)]
+    return sorted({name for model in models for name in model.model_fields})
+
+
+def _unknown_field(error: dict, schema: Any) -> str:
+    """An extra key's message: the field meant (difflib's closest of the object's fields) or the fields there are."""
+    import difflib
+
+    loc = tuple(error.get("loc", ()))
+    name = str(loc[-1]) if loc else ""
+    fields = _known_fields(schema, loc) if schema is not None else []
+    close = difflib.get_close_matches(name, fields, n=1, cutoff=0.6)
+    if close:
+        return f"unknown field {name!r}; did you mean {close[0]!r}?"
+    if fields:
+        return f"unknown field {name!r}; the fields are {', '.join(fields)}"
+    return error.get("msg", "")
 
 
 #: list-of-names fields that also take the string "all" (a bare name is the usual mistake)
@@ -208,28 +304,40 @@ _PATTERN_HINTS = {
 }
 
 
-def _message(error: dict, field: str) -> str:
+def _message(error: dict, field: str, schema: Any = None) -> str:
     hint = _PATTERN_HINTS.get(field.split(".", 1)[0])
     if hint is not None and error.get("type") == "string_pattern_mismatch":
         return f"{str(error.get('input'))[:100]!r} {hint}"
+    if error.get("type") == "extra_forbidden":
+        return _unknown_field(error, schema)
+    if error.get("type") == "value_error":  # a schema's own check: its message, without pydantic's prefix
+        return str(error.get("msg", "")).removeprefix("Value error, ")
+    if error.get("type") == "model_type" and schema is not None:  # say which object: its fields
+        fields = _known_fields(schema, (*error.get("loc", ()), ""))
+        if fields:
+            given = type(error.get("input")).__name__.replace("dict", "object")
+            return f"should be an object with the fields {', '.join(fields)}, got a {given}"
     return error.get("msg", "")
 
 
-def validation_problem(errors: list[dict]) -> ProblemResponse:
+def validation_problem(errors: list[dict], schema: Any = None) -> ProblemResponse:
     """422 for pydantic errors: ``field`` names the first offending field, ``errors`` lists the rest.
 
-    For a union (q), only the errors of the member the first error belongs to are kept:
-    "q.5: not a number" says more than "q: not an object" and its other alternatives.
+    For a union (q, a pose), only the errors of the member the input most nearly is are kept
+    (:func:`_best_members`): "q.5: not a number" says more than "q: not an object" and its other
+    alternatives. ``schema`` (the request's model, when known) names the field an unknown key was
+    probably meant to be.
     """
     if not errors:
         return problem(422, "Invalid request", "invalid request", "validation-error")
-    branch = _branch(tuple(errors[0].get("loc", ())))
+    best = _best_members(errors)
     seen, cleaned = set(), []
     for e in errors:
         loc = tuple(e.get("loc", ()))
-        if branch is not None and _branch(loc) not in (branch, None):
+        union = _union(loc)
+        if union is not None and best.get(union[0]) != union[1]:
             continue
-        item = {"field": _field(loc), "message": _message(e, _field(loc)), "type": e.get("type", "")}
+        item = {"field": _field(loc), "message": _message(e, _field(loc), schema), "type": e.get("type", "")}
         if (item["field"], item["message"]) not in seen:
             seen.add((item["field"], item["message"]))
             cleaned.append(item)
@@ -243,8 +351,10 @@ def validation_problem(errors: list[dict]) -> ProblemResponse:
     if first["field"] == "q" or first["field"].startswith("q."):
         detail = ("q must be a list of numbers (one configuration), a {joint_name: number} map, "
                   f"or a list of those (a batch): {first['field']}: {first['message']}")
-    else:
-        detail = f"{first['field'] or 'request'}: {first['message']}"
+    elif first["field"]:
+        detail = f"{first['field']}: {first['message']}"
+    else:  # a check of the whole request (its message names the fields)
+        detail = first["message"] if first["type"] == "value_error" else f"request: {first['message']}"
     return problem(422, "Invalid request", detail, "validation-error", field=first["field"] or None,
                    errors=cleaned[:20])
 
@@ -277,6 +387,20 @@ def allowed_methods(request: Request) -> list[str]:
     return sorted(methods, key=lambda m: (order.index(m) if m in order else len(order), m))
 
 
+def _route_body_schema(request: Request) -> Any:
+    """The model of the body a FastAPI route declares (None when it reads its body itself)."""
+    field = getattr(request.scope.get("route"), "body_field", None)
+    return getattr(getattr(field, "field_info", None), "annotation", None)
+
+
+def _schema_named(title: str) -> Any:
+    """The request schema of that class name (a ValidationError's ``title``), None if not one of ours."""
+    from . import schemas
+
+    found = getattr(schemas, title, None)
+    return found if isinstance(found, type) else None
+
+
 def install_error_handlers(app: FastAPI) -> None:
     """Register the problem-details handlers on ``app``."""
 
@@ -290,11 +414,11 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def _request_validation(request: Request, exc: RequestValidationError):
-        return validation_problem(list(exc.errors()))
+        return validation_problem(list(exc.errors()), _route_body_schema(request))
 
     @app.exception_handler(ValidationError)
     async def _pydantic_validation(request: Request, exc: ValidationError):
-        return validation_problem(exc.errors(include_url=False))
+        return validation_problem(exc.errors(include_url=False), _schema_named(exc.title))
 
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, exc: StarletteHTTPException):

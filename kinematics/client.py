@@ -249,8 +249,124 @@ class Client:
                  "rotation_tolerance": rotation_tolerance, "max_iterations": max_iterations, "restarts": restarts,
                  "random_seed": random_seed, "verify": verify or None, **_layout(floating_base, False),
                  "avoid_collisions": "true" if avoid_collisions else None}
-        _, _, data = self.request("POST", f"/models/{self._id(model_id)}/ik", query=query, body=_npy(target),
-                                  content_type=NPY, accept=NPZ)
+        return self._npz("POST", f"/models/{self._id(model_id)}/ik", query, _npy(target), NPY)
+
+    def ik_all(self, model_id: str, target, link: str | None = None, *, locked: dict[str, float] | None = None,
+               limits: str = "respect", method: str = "auto", verify: bool = False,
+               avoid_collisions: bool = False) -> dict[str, np.ndarray]:
+        """Every IK solution of ``link`` at ``target`` ((N, 4, 4) or (4, 4)), as ``POST .../ik`` with
+        ``solutions: "all"``: ``{"q" (N, K, dof) padded with NaN, "count" (N,), "within_limits",
+        "singular", "position_error", "rotation_error" (N, K)}`` (+ ``"colliding"`` (N,) with
+        ``avoid_collisions``); ``locked`` holds joints at values (a 7-joint arm to a 6-joint family);
+        the family and method are in ``last_headers["x-family"]``, ``["x-method"]``."""
+        query = {"link": link, "solutions": "all", "limits": limits, "method": method, "verify": verify or None,
+                 "locked": _locked(locked), "avoid_collisions": "true" if avoid_collisions else None}
+        return self._npz("POST", f"/models/{self._id(model_id)}/ik", query, _npy(target), NPY)
+
+    def ik_family(self, model_id: str, link: str | None = None, *,
+                  locked: dict[str, float] | None = None) -> dict[str, Any]:
+        """The structure of the chain to ``link`` (``GET .../ik/family``): ``family``, ``closed_form``,
+        ``max_solutions``, which axes meet or are parallel."""
+        return self._json("GET", f"/models/{self._id(model_id)}/ik/family",
+                          query={"link": link, "locked": _locked(locked)})
+
+    def ik_path(self, model_id: str, waypoints, link: str | None = None, **options: Any) -> dict[str, Any]:
+        """A Cartesian path through ``waypoints`` ((M, 4, 4) poses) solved by continuation
+        (``POST .../ik/path``); ``options`` as the service's fields (``seed``, ``step``,
+        ``max_joint_step``, ``tolerance``, ``locked``, ``avoid_collisions``). The answer's ``q``
+        (K, dof), ``targets`` (K, 4, 4), ``position_error``, ``rotation_error`` (K,) are arrays."""
+        answer = self._json("POST", f"/models/{self._id(model_id)}/ik/path",
+                            _body({"waypoints": waypoints, "link": link, **options}))
+        return _arrays(answer, ("q", "targets", "position_error", "rotation_error"))
+
+    # ------------------------------------------------------------------ calibration
+    def calibrate(self, model_id: str, measurements=None, link: str | None = None, *, csv: str | bytes | None = None,
+                  **options: Any) -> dict[str, Any]:
+        """Calibrate the chain to ``link`` from measurements (``POST .../calibrate``): a list of
+        ``{"q", "position"}`` / ``{"q", "pose"}`` records, or ``csv`` text (a header naming every
+        joint, then ``x,y,z[,qw,qx,qy,qz]``); ``options`` as the service's fields (``point``,
+        ``parameters``, ``base``, ``tool``, ``loss``, ``holdout``, ``random_seed``, ``name``, ...).
+        The calibrated model is registered: the answer's ``model`` is its id; ``residuals`` are arrays."""
+        path = f"/models/{self._id(model_id)}/calibrate"
+        if csv is not None:
+            query = {"link": link, **{k: _point(v) if k == "point" else v for k, v in options.items()}}
+            _, _, data = self.request("POST", path, query=query, content_type="text/csv",
+                                      body=csv.encode() if isinstance(csv, str) else bytes(csv))
+            answer = json.loads(data)
+        else:
+            answer = self._json("POST", path, _body({"measurements": measurements, "link": link, **options}))
+        answer["residuals"] = _arrays(answer.get("residuals") or {}, ("before", "after"))
+        return answer
+
+    def calibration_poses(self, model_id: str, n: int, link: str | None = None, **options: Any) -> dict[str, Any]:
+        """``n`` configurations where measuring determines the calibration best
+        (``POST .../calibration/poses``): ``q`` (n, dof) an array, ``measure`` the figures."""
+        answer = self._json("POST", f"/models/{self._id(model_id)}/calibration/poses",
+                            _body({"n": n, "link": link, **options}))
+        return _arrays(answer, ("q",))
+
+    # ------------------------------------------------------------------ collision
+    def collision(self, model_id: str, q, *, distance: bool = False, margin: float = 0.0,
+                  floating_base: bool = False, normalize: bool = False) -> dict[str, Any]:
+        """Self-collision of configurations ``q`` ((N, nq) or (nq,), ``POST .../collision``): ``colliding``
+        (N,) (a bool for one), ``pairs`` per configuration, ``checked_pairs``, ``links``, ``warnings``;
+        with ``distance``: ``min_distance`` (N,) (``inf`` where no pair is checked) and ``closest``."""
+        answer = self._json("POST", f"/models/{self._id(model_id)}/collision",
+                            _body({"q": q, "distance": distance, "margin": margin, "floating_base": floating_base,
+                                   "normalize": normalize}))
+        if "min_distance" in answer:  # null (no pair checked) is an infinite distance
+            d = np.array(answer["min_distance"], dtype=np.float64)
+            d[np.isnan(d)] = np.inf
+            answer["min_distance"] = d
+        return _arrays(answer, ("colliding",), dtype=bool)
+
+    def collision_matrix(self, model_id: str, format: str = "json") -> dict[str, Any] | str:
+        """The allowed-collision matrix (``GET .../collision/matrix``): ``{links, disabled, samples}``,
+        or with ``format="srdf"`` the SRDF text (MoveIt's ``disable_collisions``)."""
+        path = f"/models/{self._id(model_id)}/collision/matrix"
+        if format == "srdf":
+            _, _, data = self.request("GET", path, query={"format": "srdf"}, accept="application/xml")
+            return data.decode("utf-8")
+        return self._json("GET", path)
+
+    # ------------------------------------------------------------------ workspace
+    def workspace(self, model_id: str, *, cloud: bool = False, **options: Any) -> dict[str, Any]:
+        """The sampled reachable set of a link (``POST .../workspace``; ``options`` as the service's
+        fields: ``link``, ``point``, ``samples``, ``voxel``, ``random_seed``, ``measure``,
+        ``collision_free``): the summary (``volume``, ``reach``, ``converged``, ...), or with
+        ``cloud`` the ``.npz`` arrays (``points`` (N, 3), ``manipulability`` (N,), the dexterity map)."""
+        path = f"/models/{self._id(model_id)}/workspace"
+        if cloud:
+            return self._npz("POST", path, None, json.dumps(_body(options)).encode(), "application/json")
+        return self._json("POST", path, _body(options))
+
+    # ------------------------------------------------------------------ closed forms, task vectors
+    def symbolic(self, model_id: str, tip: str | None = None, **options: Any) -> dict[str, Any]:
+        """Closed forms of the chain to ``tip`` (``POST .../symbolic``; ``options``: ``what``,
+        ``format``, ``simplify``, ``representation``, ``components``, ``variables``, ``prefix``, ``timeout``)."""
+        return self._json("POST", f"/models/{self._id(model_id)}/symbolic", _body({"tip": tip, **options}))
+
+    def symbolic_dh(self, table: dict[str, Any], **options: Any) -> dict[str, Any]:
+        """Closed forms of a DH table whose entries may be symbols (``POST /symbolic/dh``); nothing is registered."""
+        return self._json("POST", "/symbolic/dh", _body({"table": table, **options}))
+
+    def task(self, model_id: str, q, link: str | None = None, representation: str = "rpy", *,
+             components: Sequence[str] | None = None, limits: str = "report") -> dict[str, Any]:
+        """Task vectors ``r`` ((N, m), or (m,) for one configuration) and analytic Jacobians ``J_r``
+        ((N, m, dof) or (m, dof)) of ``link`` (``POST .../task``), with ``components`` and ``joint_names``."""
+        answer = self._json("POST", f"/models/{self._id(model_id)}/task",
+                            _body({"q": q, "link": link, "representation": representation,
+                                   "components": None if components is None else list(components),
+                                   "limits": limits}))
+        return _arrays(answer, ("r", "J_r"))
+
+    # A new operation follows the pattern above: one method named as the service's path, keyword
+    # options as the service's fields (``_body`` drops the unset ones and turns arrays into lists),
+    # ``_arrays`` for the array fields of a JSON answer, ``_npz`` where the service answers ``.npz``.
+
+    def _npz(self, method: str, path: str, query: dict[str, Any] | None, body: bytes,
+             content_type: str) -> dict[str, np.ndarray]:
+        _, _, data = self.request(method, path, query=query, body=body, content_type=content_type, accept=NPZ)
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             return {k: npz[k] for k in npz.files}
 
@@ -270,3 +386,34 @@ def _point(point: Sequence[float] | None) -> str | None:
 def _layout(floating_base: bool, normalize: bool) -> dict[str, Any]:
     """Query flags sent only when set (an older service need not know them)."""
     return {"floating_base": "true" if floating_base else None, "normalize": "true" if normalize else None}
+
+
+def _locked(locked: dict[str, float] | None) -> list[str] | None:
+    """``locked`` as the repeated ``joint:value`` query parameters of the service."""
+    return None if not locked else [f"{name}:{float(value)!r}" for name, value in locked.items()]
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with numpy arrays and scalars as lists and numbers (what JSON takes)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _body(fields: dict[str, Any]) -> dict[str, Any]:
+    """A JSON request body: the fields that are set, arrays as lists."""
+    return {k: _plain(v) for k, v in fields.items() if v is not None}
+
+
+def _arrays(answer: dict[str, Any], keys: Sequence[str], dtype=np.float64) -> dict[str, Any]:
+    """``answer`` with its ``keys`` (where present and not null) as numpy arrays."""
+    for key in keys:
+        if answer.get(key) is not None:
+            answer[key] = np.asarray(answer[key], dtype=dtype)
+    return answer

@@ -105,9 +105,14 @@ def test_example_05_parquet_log_through_fk():
     assert "command line output identical: True" in out
 
 
-def test_example_06_rest_client(tmp_path):
+def run_with_service(name: str, tmp_path) -> str:
+    """``run_example(name)`` talking to a live service started for it (``KIN_BASE_URL``)."""
     with LiveServer(tmp_path / "data", tmp_path / "uvicorn.log") as live:
-        out = run_example("06_rest_client.py", {"KIN_BASE_URL": live.url})
+        return run_example(name, {"KIN_BASE_URL": live.url})
+
+
+def test_example_06_rest_client(tmp_path):
+    out = run_with_service("06_rest_client.py", tmp_path)
     assert "service: ok" in out
     assert "FK: (1000, 1, 4, 4) links ['tool0'] verified: pinocchio" in out
     assert "Jacobians: (1000, 6, 6)" in out
@@ -179,3 +184,13 @@ def test_example_12_collision_free():
     assert "plain answer free: False" in out and "with avoid_collisions: success True free True" in out
     assert "stopped {'index': 43, 'reason': 'collision'}" in out
     assert re.search(r"workspace: \d+ free samples kept, [1-9]\d* in self-collision dropped", out)
+
+
+def test_example_13_client_every_operation(tmp_path):
+    out = run_with_service("13_client_every_operation.py", tmp_path)
+    lines = ["family: three_parallel solutions: 256", "path: (11, 6) complete: True", "calibrated: u-...",
+             "panda colliding: [False False] pairs checked: 23", "never checked: ",
+             "workspace: area 2.519 m^2 converged True cloud (20000, 3)",
+             "T(q) of planar_2r, x: cos(q1)/2 + 2*cos(q1 + q2)/5", "task: ['px', 'py', 'pz', 'phi', 'theta', 'psi'] (6, 6)"]
+    assert [line for line in lines if line not in out] == [], out
+    assert deviation(out, "rmse") < 1e-9  # the device's offset frame, found exactly (no noise)

@@ -25,11 +25,13 @@ from ..adapter import (INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, LimitsQuery
                        error_responses, execute, names_headers, npy_response_doc, one_or_all, parse_point,
                        plain_json, read_request, request_body_doc, split_names, verification_headers)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
+from ..errors import ProblemError
 from ..metrics import record_configurations
 from ..npy import decode_q
 from ..responses import FastJSONResponse, NpyResponse
 from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
                        TaskRepresentationName)
+from ..schemas.jacobian import check_analytic_reference
 from ..settings import Settings
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)], route_class=PlainJSONRoute)
@@ -62,6 +64,10 @@ async def read_jacobian_request(
         description=".npy bodies with representation: components kept (repeat or comma-separate)")] = None,
 ) -> JacobianRequest:
     def npy(body: bytes) -> dict:
+        try:
+            check_analytic_reference(reference, representation, split_names(components))
+        except ValueError as exc:
+            raise ProblemError(422, f"reference: {exc}", slug="validation-error", field="reference") from None
         return {"q": decode_q(body), "link": link, "reference": Reference.WORLD if reference is None else reference,
                 "verify": verify, "limits": limits, "point": parse_point(point), "floating_base": floating_base,
                 "normalize": normalize, "representation": representation, "components": split_names(components)}

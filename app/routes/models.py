@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from typing import Annotated, Literal
 
@@ -212,7 +213,11 @@ async def read_json_object(request: Request, settings: SettingsDep, what: str) -
     try:
         data = orjson.loads(body)
     except orjson.JSONDecodeError as exc:
-        raise ProblemError(422, f"the body is not valid JSON: {exc}", slug="validation-error", field="body") from None
+        try:  # NaN and Infinity literals read as the other bodies read them; the model's checks then name the value
+            data = json.loads(body)
+        except ValueError:
+            raise ProblemError(422, f"the body is not valid JSON: {exc}", slug="validation-error",
+                               field="body") from None
     if not isinstance(data, dict):
         raise ProblemError(422, f"the {what} must be a JSON object", slug="validation-error", field="body")
     return data

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Union
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, model_validator
 
 from kinematics.spatial.reference import Reference
 
@@ -28,6 +28,24 @@ class JacobianRequest(JointsRequest):
     representation: Union[TaskRepresentationName, None] = Field(default=None, description=_ANALYTIC_DESC)
     components: list[str] | None = Field(default=None, description="with representation: keep these components "
                                          "of the task vector (default all)")
+
+    @model_validator(mode="after")
+    def _analytic_reference(self):
+        if "reference" in self.model_fields_set:
+            check_analytic_reference(self.reference, self.representation, self.components)
+        return self
+
+
+def check_analytic_reference(reference: Reference | None, representation: str | None,
+                             components: list[str] | None) -> None:
+    """An analytic Jacobian (``representation`` or ``components``) is built from the
+    local_world_aligned Jacobian: another ``reference`` asked for with it is refused, never changed."""
+    if reference is not None and (representation is not None or components is not None) \
+            and Reference(reference) is not Reference.LOCAL_WORLD_ALIGNED:
+        raise ValueError(f"reference {Reference(reference).value!r} with representation: the analytic Jacobian "
+                         "J_r = dr/dq is built from the local_world_aligned Jacobian; leave reference out (or give "
+                         "local_world_aligned), or leave representation out for the geometric Jacobian in "
+                         f"{Reference(reference).value}")
 
 
 class JacobianResponse(BaseModel):

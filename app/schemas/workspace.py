@@ -70,7 +70,10 @@ class WorkspaceResponse(BaseModel):
 
 
 WORKSPACE_EXAMPLES = {
-    "ur5": {"summary": "UR5 tool0, 100,000 samples", "value": {"link": "tool0", "samples": 100000}},
+    "ur5_converged": {"summary": "UR5 tool0, 200,000 samples in 15 cm cells: converged",
+                      "value": {"link": "tool0", "samples": 200000, "voxel": 0.15}},
+    "ur5": {"summary": "UR5 tool0, 100,000 samples (not converged: the advice says why)",
+            "value": {"link": "tool0", "samples": 100000}},
     "ur5_tcp": {"summary": "a TCP 10 cm along tool0's z, position manipulability, 5 cm cells",
                 "value": {"link": "tool0", "point": [0, 0, 0.1], "samples": 200000, "voxel": 0.05,
                           "measure": "position", "random_seed": 7}},

@@ -67,10 +67,17 @@ def model_options(p: argparse.ArgumentParser) -> None:
                    help="a directory of ROS packages that $(find pkg) resolves (repeatable; with --xacro)")
 
 
+#: what the program does, in its --help (each command's line follows it)
+DESCRIPTION = ("Kinematics of robots (URDF, xacro, MJCF, DH tables, the catalogue), checked against Pinocchio: "
+               "forward kinematics, Jacobians and velocities, inverse kinematics (one solution, every solution, "
+               "Cartesian paths), self-collision, workspaces, calibration, closed forms and task vectors; batches "
+               "from files (CSV, .npy, Parquet, logs); and the REST service (serve).")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="kinematics",
-        description="Forward kinematics and Jacobians of robots (URDF, DH), checked against Pinocchio.",
+        description=DESCRIPTION, epilog="`kinematics COMMAND --help` gives a command's options and examples.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True

@@ -34,7 +34,7 @@ from .pipeline import (
     _endpoints, _fail, _io_options, _quietly, _timing, chunk_times, model_or_exit_code, open_input,
     open_output,
 )
-from .progress import progress
+from .progress import bar_steps, progress
 
 #: failed targets named on stderr at most
 SHOW_FAILED = 10
@@ -225,19 +225,21 @@ def _solve(args, model, link: str, seed) -> int:
     query = Query(model, link=link, verify=args.verify)  # the request shape, built once for every chunk
     t0 = time.perf_counter()
     with open_input(args, model, source, in_fmt, targets=True) as targets:
-        bar = progress(total=targets.total, desc="ik", unit="target")
+        bar = progress(total=targets.total, desc="ik", unit="target", mininterval=0)
         try:
             with open_output(args, dest, out_fmt, "ik", model.joint_names, model, targets) as writer:
                 for start, T in targets:
-                    answer = api.ik(query, T, seed=seed, mode=args.mode,
-                                    position_tolerance=args.position_tolerance,
-                                    rotation_tolerance=args.rotation_tolerance,
-                                    max_iterations=args.max_iterations, restarts=args.restarts,
-                                    random_seed=args.random_seed, avoid_collisions=args.avoid_collisions,
-                                    **filter_options(args))
-                    writer.write(answer.solution, chunk_times(targets, start, T.shape[0]))
-                    summary.add(start, answer)
-                    bar.update(T.shape[0])
+                    times = chunk_times(targets, start, T.shape[0])
+                    for s in bar_steps(T.shape[0]):  # parts, so that the bar moves (each target's answer is its own)
+                        answer = api.ik(query, T[s], seed=seed, mode=args.mode,
+                                        position_tolerance=args.position_tolerance,
+                                        rotation_tolerance=args.rotation_tolerance,
+                                        max_iterations=args.max_iterations, restarts=args.restarts,
+                                        random_seed=args.random_seed, avoid_collisions=args.avoid_collisions,
+                                        **filter_options(args))
+                        writer.write(answer.solution, times[s])
+                        summary.add(start + s.start, answer)
+                        bar.update(s.stop - s.start)
         finally:
             bar.close()
     _timing("ik", writer.rows, "targets", args, time.perf_counter() - t0)

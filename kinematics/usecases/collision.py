@@ -76,8 +76,19 @@ def collision(query: Query | RobotModel, q: Any, *, distance: bool = False, marg
     cm = _sc.geometry(model)
     checked = _sc.matrix(model, _samples(samples), cache_dir=cache_dir).enabled()
     r = cm.check(Q, checked, margin=float(margin), distance=bool(distance))
-    return CollisionAnswer(model.q_labels, is_batch, r.colliding, r.pairs, checked, cm.links, cm.warnings,
-                           r.min_distance, r.closest, r.points)
+    return CollisionAnswer(model.q_labels, is_batch, r.colliding, r.pairs, checked, cm.links,
+                           cm.warnings + _unchecked(cm.links, checked), r.min_distance, r.closest, r.points)
+
+
+def _unchecked(links: tuple[str, ...], checked: list) -> tuple[str, ...]:
+    """A warning when no pair is checked: ``colliding: false`` then means "not checked", not "free"."""
+    if not links:
+        return ("the model has no collision geometry (no <collision> elements, or none that could be read): "
+                "no pair was checked, so colliding false says nothing",)
+    if not checked:
+        return (f"no pair was checked: every pair of the {len(links)} links with collision geometry is disabled in "
+                "the allowed-collision matrix (GET .../collision/matrix), so colliding false says nothing",)
+    return ()
 
 
 def collision_matrix(query: Query | RobotModel, samples: int = DEFAULT_SAMPLES, *,

@@ -137,15 +137,17 @@ def test_rpy_gimbal_lock_is_a_problem_as_on_the_task_route(api_client, rng):
 
 
 def test_every_schema_valid_combination_is_answered(api_client):
-    """J_r = dr/dq involves no reference frame, so ``reference`` does not change it; ``components``
+    """J_r = dr/dq is built from the local_world_aligned Jacobian: another ``reference`` is refused; ``components``
     alone asks the default task (rpy, as /task); ``verify`` checks the geometric Jacobian J_r is
     built from; ``floating_base`` is refused by the library (task vectors need one-dof joints)."""
     q = {"q": [0.1] * 6}
     base = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy"}).json()
-    for reference in ("world", "local", "local_world_aligned"):
+    r = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "reference": "local_world_aligned"})
+    assert r.status_code == 200 and r.json()["jacobian"] == base["jacobian"]
+    assert base["reference"] == r.json()["reference"] == "local_world_aligned"
+    for reference in ("world", "local"):  # asked for, so refused rather than changed quietly
         r = api_client.post("/models/ur5/jacobian", json={**q, "representation": "rpy", "reference": reference})
-        assert r.status_code == 200 and r.json()["jacobian"] == base["jacobian"]
-        assert r.json()["reference"] == "local_world_aligned"
+        assert r.status_code == 422 and f"reference {reference!r} with representation" in r.json()["detail"]
     alone = api_client.post("/models/ur5/jacobian", json={**q, "components": ["px", "yaw"]}).json()
     assert alone["representation"] == "rpy" and alone["components"] == ["px", "yaw"]
     assert alone["jacobian"] == [base["jacobian"][0], base["jacobian"][5]]

@@ -107,9 +107,10 @@ def test_an_archive_upload_brings_its_meshes(client):
     assert r.status_code in (200, 201), r.text
     mid = r.json()["id"]
     body = client.post(f"/models/{mid}/collision", json={"q": [[0.05], [0.2]], "distance": True}).json()
-    assert body["links"] == ["a", "b"] and body["warnings"] == []
-    # a and b are adjacent (through the geometry-less m): never checked
+    assert body["links"] == ["a", "b"]
+    # a and b are adjacent (through the geometry-less m): never checked, and the answer says so
     assert body["checked_pairs"] == 0 and body["colliding"] == [False, False]
+    assert len(body["warnings"]) == 1 and "no pair was checked" in body["warnings"][0]
 
 
 def test_an_archive_s_meshes_survive_a_restart(api_data_dir, monkeypatch):

@@ -149,11 +149,14 @@ def test_delete_uploaded_and_bundled_is_read_only(api_client):
                                   "/models/u-..%2F..%2Fpasswd", "/models/" + "x" * 129, "/models/bad%20id",
                                   "/models/..%2Fdata/urdf"])
 def test_path_like_ids_never_touch_files(api_client, path):
-    r = api_client.get(path)
-    assert r.status_code in (404, 422)
-    assert r.headers["content-type"] == PROBLEM
+    r = api_client.get(path, follow_redirects=False)
+    if r.status_code == 307:  # the client resolved "/models/.." to "/": the front door, a redirect to /docs
+        assert r.request.url.path == "/" and r.headers["location"] == "/docs"
+    else:
+        assert r.status_code in (404, 422)
+        assert r.headers["content-type"] == PROBLEM
     r = api_client.delete(path)
-    assert r.status_code in (403, 404, 422)
+    assert r.status_code in (403, 404, 422) or (r.status_code == 405 and r.request.url.path == "/")
 
 
 def test_two_replicas_share_one_data_dir(make_client):

@@ -10,7 +10,8 @@
 
 import { api, showError } from "./api.js";
 import { $, state } from "./config.js";
-import { fillLinkOptions, loadModel } from "./loader.js";
+import { fillLinkOptions } from "./link-options.js";
+import { loadModel } from "./loader.js";
 import { model } from "./robot.js";
 
 // the SVG namespace, as the HTML parser gives it to an <svg> element (no URL in our files)

@@ -3,7 +3,7 @@
 
 import { api } from "./api.js";
 import { $, state } from "./config.js";
-import { fillLinkOptions } from "./loader.js";
+import { fillLinkOptions } from "./link-options.js";
 import { model } from "./robot.js";
 
 // ---------------------------------------------------------------------------- closed forms (KaTeX)

@@ -7,8 +7,6 @@
 export const ROOT = document.body.dataset.root || "";
 export const FK_LINKS_ALL = "all";
 export const JACOBIAN_REFERENCE = "local_world_aligned";
-export const CONTINUOUS_RANGE = Math.PI;         // slider range of a joint without limits (rad)
-export const UNLIMITED_PRISMATIC_RANGE = 1.0;    // slider range of an unlimited prismatic joint (m)
 export const SLIDER_STEPS = 10000;
 export const VISUAL_OPACITY = 0.35;
 export const TRIAD_FRACTION = 0.05;              // link triad length / model size

@@ -6,39 +6,14 @@ import { fillClosedFormTips } from "./closed-forms.js";
 import { $, API_KEY_STORAGE, FIT_DIRECTION, FK_LINKS_ALL, ROOT, state } from "./config.js";
 import { ik, resetIkTarget } from "./ik.js";
 import { clearPath } from "./path.js";
-import { applyPoses, buildRobot, checkCollision, buildSliders, fitCamera, highlightSelected, initialValue, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
+import { applyPoses, buildRobot, checkCollision, buildSliders, fitCamera, highlightSelected, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
 import { requestRender, resize } from "./scene.js";
 import { buildQdotInputs } from "./velocity.js";
 import { clearWorkspace } from "./workspace.js";
+import { defaultLink, openingCandidates, openingPose } from "./defaults.js";
+import { fillLinkOptions } from "./link-options.js";
 
 // ---------------------------------------------------------------------------- links panel
-/** The leaf link farthest (in moving joints) from the root: a sensible first selection. */
-export function defaultLink(info) {
-  const parentJoint = Object.fromEntries(info.joints.map((j) => [j.child, j]));
-  const hasChild = new Set(info.joints.map((j) => j.parent));
-  let best = info.root;
-  let bestDepth = -1;
-  for (const link of info.links) {
-    if (hasChild.has(link)) continue;
-    let depth = 0;
-    for (let j = parentJoint[link]; j; j = parentJoint[j.parent]) if (j.type !== "fixed") depth += 1;
-    if (depth > bestDepth) { best = link; bestDepth = depth; }
-  }
-  return best;
-}
-
-// A <select> filled with the model's links (label(link): the text shown), the default link selected.
-export function fillLinkOptions(select, info, label = (link) => link) {
-  select.replaceChildren();
-  for (const link of info.links) {
-    const opt = document.createElement("option");
-    opt.value = link;
-    opt.textContent = label(link);
-    select.appendChild(opt);
-  }
-  select.value = defaultLink(info);
-}
-
 export function buildLinkList(info) {
   fillLinkOptions($("link-list"), info);
   state.selectedLink = defaultLink(info);
@@ -76,6 +51,18 @@ export async function loadCatalogue(selected) {
   return list;
 }
 
+/** The opening pose (defaults.js): the first candidate POST /collision says is free; the first
+ * one when none is, or when collision checking is unavailable. */
+async function freeOpeningPose(id, info) {
+  const candidates = openingCandidates(info);
+  try {
+    const answer = await api(`/models/${encodeURIComponent(id)}/collision`, { method: "POST", body: { q: candidates } });
+    return openingPose(candidates, answer.colliding);
+  } catch (err) {
+    return candidates[0];
+  }
+}
+
 export async function loadModel(id, { push = true } = {}) {
   const token = nextLoadToken();
   state.ready = false;
@@ -88,16 +75,15 @@ export async function loadModel(id, { push = true } = {}) {
     } catch (err) {
       showError(err);                    // the skeleton is still worth showing
     }
-    // Start at q = 0 clamped into the limits (the sliders' initial values).
-    const byName = Object.fromEntries(info.joints.map((j) => [j.name, j]));
-    const q = info.joint_names.map((name) => initialValue(byName[name]));
+    // Start at q = 0 clamped into the limits, or the next candidate where that is in self-collision.
+    const q = await freeOpeningPose(id, info);
     state.fkRequests += 1;
     const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
     state.fkResponses += 1;
     if (token !== loadToken) return;
     state.lastQ = q;
     setModel(info);
-    buildSliders(info);
+    buildSliders(info, q);
     if (model.id === undefined) model.id = id;
     state.modelId = model.id;
     buildLinkList(info);

@@ -3,7 +3,7 @@
 
 import * as THREE from "three";
 import { api, showError } from "./api.js";
-import { $, AXIS_ARROW_FRACTION, CONTINUOUS_RANGE, DIGITS, FIT_DIRECTION, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, UNLIMITED_PRISMATIC_RANGE, state } from "./config.js";
+import { $, AXIS_ARROW_FRACTION, DIGITS, FIT_DIRECTION, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, state } from "./config.js";
 import { ghostRoot } from "./ghosts.js";
 import { ik, ikBusy, placeTargetAtLink } from "./ik.js";
 import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
@@ -11,6 +11,7 @@ import { requestVelocity } from "./velocity.js";
 import { cloud } from "./workspace.js";
 import { colourLinks, hasServedMeshes, linkColours, linkVisuals, loadMeshes, resetMeshState } from "./meshes.js";
 import { requestCollision, resetCollision } from "./self-collision.js";
+import { initialValue, sliderRange } from "./defaults.js";
 
 // ---------------------------------------------------------------------------- model state
 export let grid = null;                          // ground grid in the world xy plane
@@ -249,20 +250,8 @@ export function fmt(x, digits = DIGITS) {
   return v.toFixed(digits);
 }
 
-export function sliderRange(joint) {
-  const lim = joint.limits;
-  const finite = lim && Number.isFinite(lim.lower) && Number.isFinite(lim.upper) && lim.upper > lim.lower;
-  if (finite) return [lim.lower, lim.upper];
-  if (joint.type === "prismatic") return [-UNLIMITED_PRISMATIC_RANGE, UNLIMITED_PRISMATIC_RANGE];
-  return [-CONTINUOUS_RANGE, CONTINUOUS_RANGE];
-}
-
-export function initialValue(joint) {
-  const [lower, upper] = sliderRange(joint);
-  return Math.min(Math.max(0, lower), upper);
-}
-
-export function buildSliders(info) {
+/** The joint sliders of `info`, set to `q` (default: q = 0 clamped into the limits). */
+export function buildSliders(info, q = null) {
   const container = $("sliders");
   container.replaceChildren();
   sliders = [];
@@ -276,7 +265,7 @@ export function buildSliders(info) {
   info.joint_names.forEach((name, i) => {
     const joint = byName[name];
     const [lower, upper] = sliderRange(joint);
-    const initial = initialValue(joint);
+    const initial = q ? q[i] : initialValue(joint);
     const div = document.createElement("div");
     div.className = "slider";
     div.innerHTML = `<div class="label"><span class="name"></span><span class="value"></span></div>
