@@ -48,6 +48,11 @@ def register(sub) -> None:
     p.add_argument("--distance", action="store_true", help="also the minimum distance and the closest pair")
     p.add_argument("--margin", type=float, default=0.0, metavar="M", help="closer than M metres counts as colliding")
     p.add_argument("--per-pair", action="store_true", help="a 0/1 column per checked pair instead of 'pairs'")
+    p.add_argument("--dask", metavar="SCHEDULER|local:N",
+                   help="run on Dask over the partitions of a Parquet INPUT (file, directory or glob): a scheduler "
+                   "address (tcp://host:8786) or local:N worker processes; OUTPUT is a directory of Parquet files "
+                   "(colliding, pairs per row, the time column first when INPUT has one)")
+    p.add_argument("--time-column", metavar="NAME", help="Parquet INPUT: the time column carried over (default: time, if present)")
     _matrix_options(p)
 
     m = add_command(
@@ -150,10 +155,47 @@ def run_collision_matrix(args) -> int:
     return EXIT_OK
 
 
+def _run_dask(args, model) -> int:
+    """``--dask``: the check mapped over the Parquet partitions of INPUT (:func:`kinematics.distributed.collision_dask`)."""
+    from .. import distributed
+    from ..io.parquet import is_parquet
+
+    if args.input == "-" or not is_parquet(args.input):
+        return _fail("collision", "--dask reads a Parquet INPUT (a file, a directory or a glob)", EXIT_USAGE)
+    if args.output == "-":
+        return _fail("collision", "--dask writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
+    if args.per_pair or args.distance:
+        return _fail("collision", "--per-pair and --distance are not available with --dask", EXIT_USAGE)
+    try:
+        spec = distributed.model_spec(model_id=args.model, urdf=args.urdf, dh=args.dh)
+        task = distributed.CollisionTask(samples=args.samples, margin=args.margin, cache_dir=args.cache,
+                                         pairs=user_pairs(args))
+        n = distributed.run_parquet(args.input, args.output, spec, kind="collision", address=args.dask,
+                                    time_column=args.time_column or "time", collision=task)
+    except (KinematicsError, OSError) as exc:
+        return _fail("collision", str(exc), EXIT_USAGE)
+    print(f"collision: {n} configurations checked on Dask -> {args.output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _rows(args, model):
+    """The chunks ``(start, Q)`` of INPUT: Parquet (file, directory, glob) or a trajectory file."""
+    from ..io.parquet import is_parquet
+
+    if args.input != "-" and is_parquet(args.input):
+        from ..io.parquet import ParquetJointRows
+
+        return ParquetJointRows(args.input, model, time_column=args.time_column)
+    source = sys.stdin if args.input == "-" else args.input
+    return open_joint_rows(source, model, "csv" if args.input == "-" else None)
+
+
 def run_collision(args) -> int:
     model = model_or_exit_code(args, "collision")
     if isinstance(model, int):
         return model
+    if args.dask:
+        return _run_dask(args, model)
     try:
         matrix = _matrix_with_bar(model, args)
         checked = matrix.enabled()
@@ -165,8 +207,7 @@ def run_collision(args) -> int:
         writer = csv.writer(out)
         head = ["row", "colliding"] + ([f"{a}|{b}" for a, b in checked] if args.per_pair else ["pairs"])
         writer.writerow(head + (["min_distance", "closest"] if args.distance else []))
-        source = sys.stdin if args.input == "-" else args.input
-        for start, Q in open_joint_rows(source, model, "csv" if args.input == "-" else None):
+        for start, Q in _rows(args, model):
             a = _collision(model, Q, distance=args.distance, margin=args.margin, samples=args.samples,
                            cache_dir=args.cache, collision_pairs=user_pairs(args))
             for k in range(len(Q)):
