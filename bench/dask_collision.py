@@ -72,10 +72,7 @@ def dask_table(report: Report, quick: bool = False) -> dict:
                 wall = time.perf_counter() - t2
                 parts = ddf.npartitions
             finally:
-                cluster = getattr(client, "_kinematics_cluster", None)
-                client.close()
-                if cluster is not None:
-                    cluster.close()
+                distributed.close(client)
             answers[workers] = pq.read_table(dest).sort_by("time").column("colliding").to_numpy(zero_copy_only=False)
             rate = n / wall
             out[workers] = {"wall": wall, "rate": rate}

@@ -336,10 +336,15 @@ def run_parquet(source, dest, model, kind: str = "fk", links=None, link=None, re
         mapped.to_parquet(str(dest), write_index=False, **WRITE_OPTIONS)
         return int(sum(f.metadata.num_rows for f in _files(dest)))
     finally:
-        cluster = getattr(client, "_kinematics_cluster", None)
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        close(client)
+
+
+def close(client) -> None:
+    """Close a client of :func:`connect`, and the LocalCluster it started."""
+    cluster = getattr(client, "_kinematics_cluster", None)
+    client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 def _files(dest):

@@ -58,3 +58,24 @@ def test_bad_pairs_are_usage_errors(tmp_path, capsys, extra, code, said):
         assert main(["collision", "--model", "ur5", str(src), "-n", "50", *extra]) == code
     assert said in capsys.readouterr().err
 
+
+
+def test_ik_all_avoid_collisions_takes_the_pairs(tmp_path, catalogue, capsys):
+    ur5 = catalogue.get("ur5")
+    Q = ur5.sample_configurations(6, np.random.default_rng(0))
+    from kinematics import compile_model, usecases
+
+    np.save(tmp_path / "T.npy", compile_model(ur5).fk(Q, ["tool0"])[:, 0])
+    strict = usecases.ik(ur5, compile_model(ur5).fk(Q, ["tool0"])[:, 0], link="tool0", solutions="all",
+                         avoid_collisions=True, collision_samples=300)
+    assert strict.colliding.sum() > 0
+    allow = [arg for a, b in self_collision.matrix(ur5, 300).enabled() for arg in ("--allow", f"{a},{b}")]
+    out = tmp_path / "free.csv"
+    main(["ik", "--model", "ur5", "--link", "tool0", "--all", "--avoid-collisions", "--collision-samples", "300",
+          str(tmp_path / "T.npy"), "-o", str(out), *allow])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert len(list(csv.reader(open(out)))) - 1 == strict.count.sum() + strict.colliding.sum()
+    assert main(["ik", "--model", "ur5", "--link", "tool0", "--all", "--avoid-collisions", "--collision-samples",
+                 "300", str(tmp_path / "T.npy"), "-o", str(out), "--allow", "nope_link,base_link"]) == 2
+    assert "nope_link" in capsys.readouterr().err
