@@ -25,7 +25,10 @@ Layout (``<data_dir>/models/``), one content file per model plus a small JSON si
   xacro arguments, the archive entry); the sidecar is required for these and records
   ``upload``: ``format``, ``container``, ``entry``, ``args``, ``warnings`` and the SHA-256 of
   the URDF (``urdf_sha256``, checked on every read);
-* ``<id>.meta.json``      ``{"name", "source", "created"}`` (optional; written first).
+* ``<id>.meta.json``      ``{"name", "source", "created"}`` (optional; written first), and a
+  model's settings: ``collision_pairs`` (``{"allow", "forbid"}``: the link pairs its
+  self-collision checks leave out or always make). A bundled model's settings live in a sidecar
+  of its id too (it has no content file, so it is never listed as stored).
 
 Writes are atomic (temporary file in the same directory, fsync, ``os.replace``); the
 content file is written last and deleted first, so its presence defines the model.
@@ -460,11 +463,35 @@ class Registry:
             self._stored[model_id] = renamed
         return renamed
 
-    def _store_meta(self, model_id: str, meta: dict[str, Any]) -> None:
+    def _store_meta(self, model_id: str, meta: dict[str, Any], action: str = "renamed") -> None:
         try:
             atomic_write(self._meta_path(model_id), canonical_json(meta))
         except OSError as exc:
-            raise storage_problem(model_id, "renamed", exc) from None
+            raise storage_problem(model_id, action, exc) from None
+
+    def collision_pairs(self, model_id: str) -> dict[str, Any] | None:
+        """The model's stored ``{"allow": [[a, b], ...], "forbid": [...]}`` (None: none set).
+        Read from the sidecar on every call, so a change by another worker is seen at once."""
+        self.get(model_id)
+        pairs = self._read_meta(model_id).get("collision_pairs")
+        return pairs if isinstance(pairs, dict) else None
+
+    def set_collision_pairs(self, model_id: str, pairs: dict[str, Any] | None) -> None:
+        """Store (None or empty lists: clear) the model's collision pairs in its sidecar; the caller
+        has checked the link names."""
+        rec = self.get(model_id)
+        meta = self._read_meta(model_id) or ({} if rec.bundled else
+                                             {"id": model_id, "name": rec.name, "source": rec.source,
+                                              "created": rec.created})
+        if pairs and any(pairs.values()):
+            meta["collision_pairs"] = pairs
+        else:
+            meta.pop("collision_pairs", None)
+        self._store_meta(model_id, meta, "given its collision pairs")
+        if not rec.bundled:  # the record's key includes the sidecar's: the same model under the new key
+            kept = replace(rec, file_key=self._record_key(model_id, os.stat(self._content_path(model_id))))
+            with self._lock:
+                self._stored[model_id] = kept
 
     def _record_key(self, model_id: str, content: os.stat_result) -> tuple:
         try:

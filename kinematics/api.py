@@ -18,7 +18,7 @@ from .usecases import (DEFAULT_SYMBOLIC_TIMEOUT, DESCRIPTION_KINDS, LIMIT_POLICI
                        description_urdf, dh_form, fk, ik, ik_all, ik_family, ik_path, jacobian, joint_batch,
                        load_model, model_for, model_from_description, reference_name, resolve_links, screws,
                        symbolic, symbolic_dh, task, velocity, warm_up, workspace)
-from .usecases import CollisionAnswer, collision, collision_free, collision_matrix  # noqa: F401
+from .usecases import CollisionAnswer, UserPairs, collision, collision_free, collision_matrix  # noqa: F401
 from .io.collision_geometry import with_geometry_warnings  # noqa: F401 - the registry adds mesh warnings with it
 from .usecases.query import Answer as _Answer, prefixed as _prefixed  # noqa: F401 - former private names
 
@@ -29,5 +29,5 @@ __all__ = [
     "description_urdf", "dh_form", "fk", "ik", "ik_all", "ik_family", "ik_path", "jacobian", "joint_batch",
     "load_model", "model_for", "model_from_description", "reference_name", "resolve_links", "screws", "symbolic",
     "symbolic_dh", "task", "velocity", "warm_up", "workspace",
-    "CollisionAnswer", "collision", "collision_free", "collision_matrix", "with_geometry_warnings",
+    "CollisionAnswer", "collision", "collision_free", "collision_matrix", "with_geometry_warnings", "UserPairs",
 ]

@@ -26,6 +26,14 @@ For users who already have a Dask dataframe::
 
 The command line does the same: ``kinematics fk --model ur5 logs/ --dask local:2 -o poses/``
 (``--dask tcp://scheduler:8786`` for a running cluster).
+
+Self-collision maps the same way (:func:`collision_dask`, ``kinematics collision logs/ --dask
+local:2 -o report/``): each partition answers ``colliding`` and ``pairs`` (the pairs in
+collision, ``a|b`` joined by ``;``, as the local command's CSV) per row, on the matrix of the
+task's :class:`CollisionTask` (samples, margin, cache, the user's pairs), the same on every
+worker (a seeded matrix), so the answers equal a local run's. A partition is checked in
+slices of ``CollisionTask.chunk`` rows: a worker's memory is bounded by the partition size
+(``blocksize``) and the slice, whatever the dataset's length.
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from __future__ import annotations
 import hashlib
 import os
 import threading
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
@@ -246,23 +255,96 @@ def warm_up(client, spec: tuple[str, str]) -> dict:
     return client.run(load)
 
 
+@dataclass(frozen=True)
+class CollisionTask:
+    """What a self-collision partition needs besides its rows: the matrix's ``samples`` and
+    ``cache_dir`` (a directory the workers share computes it once), ``margin`` (m), the user's
+    ``pairs`` (:class:`~kinematics.algorithms.collision_matrix.UserPairs` or None) and ``chunk``
+    (rows checked at once)."""
+
+    samples: int = 10_000
+    margin: float = 0.0
+    cache_dir: str | None = None
+    pairs: Any = None
+    chunk: int = 65_536
+
+
+#: the output columns of a self-collision partition
+COLLISION_COLUMNS = ("colliding", "pairs")
+
+
+def collision_columns(answer) -> dict[str, np.ndarray]:
+    """``colliding`` (bool) and ``pairs`` (``a|b;c|d``) of a :class:`~kinematics.usecases.CollisionAnswer`."""
+    return {"colliding": np.asarray(answer.colliding, dtype=bool),
+            "pairs": np.array([";".join(f"{a}|{b}" for a, b in row) for row in answer.pairs], dtype=object)}
+
+
+def collision_partition(df, spec, task: CollisionTask, time_column: str | None = TIME_COLUMN):
+    """``colliding`` and ``pairs`` (a pandas DataFrame, same index) of one partition ``df`` of joint
+    columns, checked in slices of ``task.chunk`` rows; ``time_column`` carried first."""
+    import pandas as pd
+
+    model = worker_model(spec)
+    missing = [j for j in model.joint_names if j not in df.columns]
+    if missing:
+        raise KinematicsError(f"no column for joint(s) {', '.join(missing)}")
+    Q = np.ascontiguousarray(df[list(model.joint_names)].to_numpy(dtype=np.float64))
+    colliding, pairs = np.zeros(len(Q), dtype=bool), np.empty(len(Q), dtype=object)
+    for start in range(0, len(Q), task.chunk):
+        a = api.collision(model, Q[start:start + task.chunk], margin=task.margin, samples=task.samples,
+                          cache_dir=task.cache_dir, collision_pairs=task.pairs)
+        cols = collision_columns(a)
+        colliding[start:start + len(a.colliding)] = cols["colliding"]
+        pairs[start:start + len(a.colliding)] = cols["pairs"]
+    out = pd.DataFrame({"colliding": colliding, "pairs": pd.array(pairs, dtype="string")}, index=df.index, copy=False)
+    if time_column is not None and time_column in df.columns:
+        out.insert(0, time_column, df[time_column])
+    return out
+
+
+def collision_dask(ddf, model, task: CollisionTask = CollisionTask(), time_column: str | None = TIME_COLUMN):
+    """Self-collision of every row of the Dask dataframe ``ddf`` (joint columns by name): a lazy
+    Dask dataframe of ``colliding``, ``pairs`` (``time_column`` first when ``ddf`` has it), one
+    partition per input partition. The pairs' names are checked here, on the client."""
+    import pandas as pd
+
+    spec = model_spec(model)
+    m = worker_model(spec)
+    api.collision_matrix(m, task.samples, cache_dir=task.cache_dir, collision_pairs=task.pairs)
+    missing = [j for j in m.joint_names if j not in ddf.columns]
+    if missing:
+        raise KinematicsError(f"the dataframe has no column for joint(s) {', '.join(missing)}")
+    meta = pd.DataFrame({"colliding": np.zeros(0, bool), "pairs": pd.array([], dtype="string")})
+    if time_column is not None and time_column in ddf.columns:
+        meta.insert(0, time_column, ddf._meta[time_column])
+    return ddf.map_partitions(collision_partition, spec, task, time_column, meta=meta)
+
+
 def run_parquet(source, dest, model, kind: str = "fk", links=None, link=None, reference: str = "world",
-                address: str = "local", time_column: str | None = TIME_COLUMN, blocksize=DEFAULT_BLOCKSIZE) -> int:
+                address: str = "local", time_column: str | None = TIME_COLUMN, blocksize=DEFAULT_BLOCKSIZE,
+                collision: CollisionTask | None = None) -> int:
     """Read ``source`` (Parquet), compute on the Dask cluster at ``address`` (:func:`connect`), write
-    the partitioned Parquet dataset ``dest`` (a directory, one file per partition); the row count."""
+    the partitioned Parquet dataset ``dest`` (a directory, one file per partition); the row count.
+    ``kind``: ``fk``, ``jacobian`` or ``collision`` (with ``collision``, its :class:`CollisionTask`)."""
     spec = model_spec(model)
     client = connect(address)
     try:
         warm_up(client, spec)
         ddf = read_joint_parquet(source, spec, time_column, blocksize)
-        mapped = _map(ddf, spec, kind, links, link, reference, time_column, 1)
+        mapped = (collision_dask(ddf, spec, collision or CollisionTask(), time_column) if kind == "collision"
+                  else _map(ddf, spec, kind, links, link, reference, time_column, 1))
         mapped.to_parquet(str(dest), write_index=False, **WRITE_OPTIONS)
         return int(sum(f.metadata.num_rows for f in _files(dest)))
     finally:
-        cluster = getattr(client, "_kinematics_cluster", None)
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        close(client)
+
+
+def close(client) -> None:
+    """Close a client of :func:`connect`, and the LocalCluster it started."""
+    cluster = getattr(client, "_kinematics_cluster", None)
+    client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 def _files(dest):

@@ -177,6 +177,14 @@ def test_example_11_self_collision():
     assert deviation(out, "distance deviation from Pinocchio:") < 1e-6
 
 
+def test_example_13_collision_pairs():
+    out = run_example("13_collision_pairs.py")
+    assert "colliding pairs: [('base_link', 'upper_arm_link')]" in out
+    assert "Pinocchio with coal agrees the pair collides: True" in out
+    assert "still in collision: False | pairs checked: 18 -> 18" in out
+    assert '<enable_collisions link1="wrist_1_link" link2="ee_link" reason="User"/>' in out
+
+
 def test_example_12_collision_free():
     out = run_example("12_collision_free.py")
     assert "solutions: 8, free of self-collision: 4 (4 left out)" in out

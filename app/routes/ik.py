@@ -35,6 +35,7 @@ from ..metrics import record_ik
 from ..npy import decode_targets
 from ..responses import NPZ_MEDIA_TYPE, FastJSONResponse, NpzResponse
 from .collision import cache_dir as collision_cache_dir
+from .collision import user_pairs
 from ..schemas import IK_EXAMPLES, IKAllResponse, IKRequest, IKResponse
 from ..settings import Settings
 
@@ -123,7 +124,9 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
     rec = registry.get(model_id)
     tolerance = req.tolerance
     # the request's limits are the IK policy (respect / ignore), not the joint-value policy of the query
-    answer = usecases.ik(req.to_query(rec.model, budget(settings), limits="report"), req.target, seed=req.seed,
+    pairs = user_pairs(registry, rec.id, req) if req.avoid_collisions else None
+    answer = usecases.ik(req.to_query(rec.model, budget(settings), limits="report", collision_pairs=pairs),
+                         req.target, seed=req.seed,
                          mode=req.mode, position_tolerance=tolerance["position"],
                          rotation_tolerance=tolerance["rotation"], max_iterations=req.max_iterations,
                          restarts=req.restarts, random_seed=req.random_seed, solutions=req.solutions,

@@ -14,6 +14,7 @@ from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
 from ..responses import FastJSONResponse
 from ..schemas import IK_PATH_EXAMPLES, IKFamilyResponse, IKPathRequest, IKPathResponse
 from .collision import cache_dir as collision_cache_dir
+from .collision import user_pairs
 from .ik import parse_locked
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
@@ -49,7 +50,9 @@ async def ik_path(model_id: ModelId, req: Annotated[IKPathRequest, Depends(read_
 def _path(model_id: str, req: IKPathRequest, registry, settings):
     rec = registry.get(model_id)
     tol = req.tolerance
-    ans = usecases.ik_path(req.to_query(rec.model, budget(settings)), req.waypoints, seed=req.seed, step=req.step,
+    pairs = user_pairs(registry, rec.id, req) if req.avoid_collisions else None
+    ans = usecases.ik_path(req.to_query(rec.model, budget(settings), collision_pairs=pairs), req.waypoints,
+                           seed=req.seed, step=req.step,
                            max_joint_step=req.max_joint_step, position_tolerance=tol["position"],
                            rotation_tolerance=tol["rotation"], locked=req.locked,
                            avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,

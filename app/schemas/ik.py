@@ -6,6 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .collision import CollisionPairs
 from .common import BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
@@ -19,7 +20,7 @@ class IKTolerance(BaseModel):
 
 
 
-class IKRequest(QueryRequest):
+class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoid_collisions checks
     link: str | None = Field(default=None, description="the link to place (default: the first leaf link)")
     target: Union[BasePose, list[BasePose]] = Field(description=_POSE_DESC + "; or a list of those (a batch)")
     seed: Union[JointValues, None] = Field(

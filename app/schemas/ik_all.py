@@ -7,6 +7,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .collision import CollisionPairs
 from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector
 from .ik import IKTolerance
 
@@ -55,7 +56,7 @@ class PathStep(BaseModel):
     rotation: Number = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
 
 
-class IKPathRequest(QueryRequest):
+class IKPathRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoid_collisions checks
     link: str | None = Field(default=None, description="the link to move (default: the first leaf link)")
     waypoints: list[BasePose] = Field(min_length=2, description="two or more poses, T_world_link")
     seed: Union[JointValues, None] = Field(default=None, description="the start configuration (default: the solution "

@@ -15,6 +15,12 @@ Over the links with collision geometry (:class:`~kinematics.algorithms.collision
 A pair that is both adjacent and something else is ``adjacent`` (the first reason wins, in that
 order). The checked pairs are the others: :attr:`CollisionMatrix.enabled`.
 
+A user changes a matrix with :class:`UserPairs`: ``allow`` disables pairs (a gripper holding a
+tool, a calibration rig: reason ``user``), ``forbid`` enables pairs the matrix disabled (a pair
+the sampling called ``never`` that a task reaches): :meth:`CollisionMatrix.with_pairs`. The
+forbidden pairs are listed in :attr:`CollisionMatrix.forced` and exported as SRDF
+``enable_collisions``.
+
 :func:`collision_matrix` computes it once per model, geometry and settings and keeps it as JSON
 in ``cache_dir`` (keyed by the model's content hash, the geometry's fingerprint and the
 settings), so a second call -- in this process or the next -- reads it back.
@@ -33,7 +39,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from ..errors import CollisionError
+from ..errors import CollisionError, did_you_mean
 from .collision import CollisionModel
 
 #: reasons, in the order they are decided
@@ -43,15 +49,67 @@ DEFAULT_SAMPLES = 10_000
 MATRIX_VERSION = 1
 
 
+Pair = tuple[str, str]
+
+
+def _pairs(pairs, what: str) -> tuple[Pair, ...]:
+    out = []
+    for pair in pairs:
+        if isinstance(pair, str) or len(pair) != 2 or not all(isinstance(n, str) for n in pair):
+            raise CollisionError(f"{what}: a pair names two links, got {pair!r}")
+        out.append((pair[0], pair[1]))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class UserPairs:
+    """The pairs a user sets on a matrix: ``allow`` (never checked: disabled, reason ``user``) and
+    ``forbid`` (always checked, whatever the matrix's reason). A pair in both is refused.
+    :meth:`then` lays another set over this one (its choices win): a request over a model's
+    settings.
+
+    >>> UserPairs(allow=[("a", "b")]).then(UserPairs(forbid=[("b", "a")]))
+    UserPairs(allow=(), forbid=(('b', 'a'),))
+    """
+
+    allow: tuple[Pair, ...] = ()
+    forbid: tuple[Pair, ...] = ()
+
+    def __post_init__(self) -> None:
+        allow, forbid = _pairs(self.allow, "allow"), _pairs(self.forbid, "forbid")
+        forbidden = {frozenset(p) for p in forbid}
+        for a, b in allow:
+            if frozenset((a, b)) in forbidden:
+                raise CollisionError(f"the pair ({a!r}, {b!r}) is both allowed and forbidden")
+        object.__setattr__(self, "allow", allow)
+        object.__setattr__(self, "forbid", forbid)
+
+    def __bool__(self) -> bool:
+        return bool(self.allow or self.forbid)
+
+    def then(self, other: "UserPairs | None") -> "UserPairs":
+        """These pairs with ``other``'s laid over them: a pair ``other`` names takes its choice."""
+        if not other:
+            return self
+        named = {frozenset(p) for p in other.allow + other.forbid}
+        keep = [p for p in self.allow if frozenset(p) not in named], [p for p in self.forbid if frozenset(p) not in named]
+        return UserPairs(tuple(keep[0]) + other.allow, tuple(keep[1]) + other.forbid)
+
+    def as_dict(self) -> dict:
+        return {"allow": [list(p) for p in self.allow], "forbid": [list(p) for p in self.forbid]}
+
+
 @dataclass(frozen=True)
 class CollisionMatrix:
     """``links`` (with geometry), ``disabled`` ({(a, b): reason}, ``a`` before ``b`` in ``links``),
-    ``samples`` (configurations sampled), ``counts`` ({pair: configurations in collision})."""
+    ``samples`` (configurations sampled), ``counts`` ({pair: configurations in collision}),
+    ``forced`` (pairs a user forbids that the matrix would disable: checked all the same)."""
 
     links: tuple[str, ...]
     disabled: dict[tuple[str, str], str]
     samples: int
     counts: dict[tuple[str, str], int] = field(default_factory=dict, repr=False)
+    forced: tuple[tuple[str, str], ...] = ()
 
     def enabled(self) -> list[tuple[str, str]]:
         """The pairs a check looks at: every pair of ``links`` not disabled, ``links`` order."""
@@ -59,31 +117,53 @@ class CollisionMatrix:
 
     def with_user(self, pairs: Sequence[Sequence[str]]) -> "CollisionMatrix":
         """This matrix with ``pairs`` also disabled (reason ``user``, unless already disabled)."""
+        return self.with_pairs(UserPairs(allow=pairs))
+
+    def key(self, pair: Sequence[str], what: str = "a pair", model_links: Sequence[str] = ()) -> Pair:
+        """``pair`` ordered as in ``links``; a name that is no link of the model (``model_links``,
+        when given) or one without collision geometry raises :class:`CollisionError` naming it."""
         index = {name: i for i, name in enumerate(self.links)}
+        a, b = pair
+        for name in (a, b):
+            if name not in index:
+                if model_links and name not in model_links:
+                    raise CollisionError(f"{what}: unknown link {name!r}" + did_you_mean(name, list(model_links), "links"))
+                raise CollisionError(f"{what}: link {name!r} has no collision geometry; it cannot be in a pair "
+                                     f"(links with geometry: {', '.join(self.links) or 'none'})")
+        if a == b:
+            raise CollisionError(f"{what}: the pair ({a!r}, {b!r}) names one link twice")
+        return (a, b) if index[a] < index[b] else (b, a)
+
+    def with_pairs(self, user: UserPairs | None, model_links: Sequence[str] = ()) -> "CollisionMatrix":
+        """This matrix with a user's pairs: ``user.allow`` disabled (reason ``user``, unless already
+        disabled for another reason), ``user.forbid`` enabled (removed from ``disabled``; those the
+        matrix disabled are listed in :attr:`forced`). Names are checked (see :meth:`key`)."""
+        if not user:
+            return self
         disabled = dict(self.disabled)
-        for pair in pairs:
-            if len(pair) != 2:
-                raise CollisionError(f"a disabled pair names two links, got {list(pair)!r}")
-            a, b = pair
-            for name in (a, b):
-                if name not in index:
-                    raise CollisionError(f"link {name!r} has no collision geometry; it cannot be in a disabled pair")
-            if a == b:
-                raise CollisionError(f"the pair ({a!r}, {b!r}) names one link twice")
-            key = (a, b) if index[a] < index[b] else (b, a)
+        forced = list(self.forced)
+        for pair in user.forbid:
+            key = self.key(pair, "forbid", model_links)
+            if disabled.pop(key, None) is not None and key not in forced:
+                forced.append(key)
+        for pair in user.allow:
+            key = self.key(pair, "allow", model_links)
+            if key in forced:
+                forced.remove(key)
             disabled.setdefault(key, "user")
-        return CollisionMatrix(self.links, disabled, self.samples, self.counts)
+        return CollisionMatrix(self.links, disabled, self.samples, self.counts, tuple(forced))
 
     def as_dict(self) -> dict:
         """``{"links", "disabled": [{"links": [a, b], "reason"}], "samples"}`` (pairs in ``links`` order)."""
         index = {name: i for i, name in enumerate(self.links)}
         rows = sorted(self.disabled.items(), key=lambda kv: (index[kv[0][0]], index[kv[0][1]]))
         return {"links": list(self.links), "disabled": [{"links": [a, b], "reason": r} for (a, b), r in rows],
-                "samples": self.samples}
+                "enabled": [{"links": [a, b], "reason": "user"} for a, b in self.forced], "samples": self.samples}
 
     def to_srdf(self, robot: str) -> str:
         """The matrix as an SRDF document of ``disable_collisions`` elements (MoveIt's reasons:
-        ``Adjacent``, ``Always``, ``Never``, ``User``).
+        ``Adjacent``, ``Always``, ``Never``, ``User``), then an ``enable_collisions`` element
+        (reason ``User``) per pair a user forbids that the matrix would disable.
 
         >>> CollisionMatrix(("a", "b"), {("a", "b"): "adjacent"}, 10).to_srdf("r").splitlines()[2]
         '    <disable_collisions link1="a" link2="b" reason="Adjacent"/>'
@@ -93,6 +173,8 @@ class CollisionMatrix:
             a, b = row["links"]
             lines.append(f"    <disable_collisions link1={quoteattr(a)} link2={quoteattr(b)} "
                          f"reason={quoteattr(row['reason'].capitalize())}/>")
+        for a, b in self.forced:
+            lines.append(f'    <enable_collisions link1={quoteattr(a)} link2={quoteattr(b)} reason="User"/>')
         lines.append("</robot>")
         return "\n".join(lines) + "\n"
 

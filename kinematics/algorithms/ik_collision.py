@@ -30,20 +30,22 @@ from typing import Callable
 import numpy as np
 
 from ..model.robot import RobotModel
-from .collision_matrix import DEFAULT_SAMPLES
+from .collision_matrix import DEFAULT_SAMPLES, UserPairs
 from .ik_all import AllSolutions
 
 Filter = Callable[[np.ndarray], np.ndarray]
 
 
 def self_collision_filter(model: RobotModel, *, samples: int = DEFAULT_SAMPLES, margin: float = 0.0,
-                          cache_dir: os.PathLike | str | None = None) -> Filter:
+                          cache_dir: os.PathLike | str | None = None, user_pairs: UserPairs | None = None) -> Filter:
     """``free(Q)`` (R, dof) -> (R,) bool: free of self-collision on the enabled pairs of the model's
-    allowed-collision matrix (``samples`` configurations, kept in ``cache_dir``); closer than
+    allowed-collision matrix (``samples`` configurations, kept in ``cache_dir``; with the pairs a
+    user allows and forbids, ``user_pairs``); closer than
     ``margin`` (m) counts as colliding. Configurations that differ by whole turns of revolute joints
     (the ``q + 2πk`` copies of an IK branch) are one pose of the arm: each is checked once."""
     from . import self_collision as _sc
 
+    _sc.matrix(model, samples, cache_dir=cache_dir, user_pairs=user_pairs)  # the pairs' names checked now
     angular = np.asarray(model.angular, dtype=bool)
 
     def free(Q: np.ndarray) -> np.ndarray:
@@ -56,7 +58,7 @@ def self_collision_filter(model: RobotModel, *, samples: int = DEFAULT_SAMPLES, 
         keys[:, angular] = np.mod(keys[:, angular], np.round(2 * np.pi, 9))  # 0 and 2π the same
         _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
         return _sc.collision_free(model, Q[first], margin=margin, samples=samples,
-                                  cache_dir=cache_dir)[inverse.reshape(-1)]
+                                  cache_dir=cache_dir, user_pairs=user_pairs)[inverse.reshape(-1)]
 
     return free
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..io.collision_geometry import CollisionGeometry, collision_geometry
 from ..model.robot import RobotModel
 from .collision import CollisionModel, CollisionResult, collision_model
-from .collision_matrix import DEFAULT_SAMPLES, CollisionMatrix
+from .collision_matrix import DEFAULT_SAMPLES, CollisionMatrix, UserPairs
 from .collision_matrix import collision_matrix as _matrix
 
 _geometries: "weakref.WeakKeyDictionary[RobotModel, CollisionGeometry]" = weakref.WeakKeyDictionary()
@@ -48,9 +48,11 @@ def geometry(model: RobotModel) -> CollisionModel:
 
 
 def matrix(model: RobotModel, samples: int = DEFAULT_SAMPLES, *, cache_dir: os.PathLike | str | None = None,
-           user: Sequence[Sequence[str]] = (), progress: Callable[[int], None] | None = None) -> CollisionMatrix:
+           user: Sequence[Sequence[str]] = (), user_pairs: UserPairs | None = None,
+           progress: Callable[[int], None] | None = None) -> CollisionMatrix:
     """The model's allowed-collision matrix from ``samples`` configurations (kept per model in
-    memory and, with ``cache_dir``, on disk), with ``user`` pairs also disabled."""
+    memory and, with ``cache_dir``, on disk), with ``user`` pairs also disabled and ``user_pairs``
+    (:class:`~kinematics.algorithms.collision_matrix.UserPairs`) allowed and forbidden."""
     cm = geometry(model)
     key = (samples, None if cache_dir is None else str(cache_dir))  # a new cache directory gets its file
     with _lock:
@@ -62,25 +64,28 @@ def matrix(model: RobotModel, samples: int = DEFAULT_SAMPLES, *, cache_dir: os.P
             per[key] = found
     elif progress is not None:
         progress(samples)
-    return found.with_user(user) if user else found
+    if user:
+        user_pairs = UserPairs(allow=user).then(user_pairs)
+    return found.with_pairs(user_pairs, model.links)
 
 
 def check(model: RobotModel, Q, *, distance: bool = False, margin: float = 0.0,
           pairs: Sequence[tuple[str, str]] | None = None, samples: int = DEFAULT_SAMPLES,
           cache_dir: os.PathLike | str | None = None, stop_at_first: bool = False,
-          progress: Callable[[int], None] | None = None) -> CollisionResult:
+          user_pairs: UserPairs | None = None, progress: Callable[[int], None] | None = None) -> CollisionResult:
     """Self-collision of every configuration of ``Q`` (N, nq) on ``pairs`` (default: the
-    matrix's enabled pairs); see :meth:`CollisionModel.check`."""
+    matrix's enabled pairs, with ``user_pairs``); see :meth:`CollisionModel.check`."""
     cm = geometry(model)
     if pairs is None:
-        pairs = matrix(model, samples, cache_dir=cache_dir).enabled()
+        pairs = matrix(model, samples, cache_dir=cache_dir, user_pairs=user_pairs).enabled()
     return cm.check(Q, pairs, margin=margin, distance=distance, stop_at_first=stop_at_first, progress=progress)
 
 
 def collision_free(model: RobotModel, Q, *, margin: float = 0.0, samples: int = DEFAULT_SAMPLES,
-                   cache_dir: os.PathLike | str | None = None) -> np.ndarray:
+                   cache_dir: os.PathLike | str | None = None, user_pairs: UserPairs | None = None) -> np.ndarray:
     """(N,) bool: which configurations of ``Q`` (N, nq) are free of self-collision on the matrix's
-    enabled pairs (closer than ``margin`` counts as colliding). A model without collision
-    geometry is free everywhere."""
+    enabled pairs, with ``user_pairs`` (closer than ``margin`` counts as colliding). A model
+    without collision geometry is free everywhere."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    return ~check(model, Q, margin=margin, samples=samples, cache_dir=cache_dir, stop_at_first=True).colliding
+    return ~check(model, Q, margin=margin, samples=samples, cache_dir=cache_dir, stop_at_first=True,
+                  user_pairs=user_pairs).colliding

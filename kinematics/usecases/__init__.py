@@ -24,7 +24,7 @@ out (:class:`~kinematics.errors.TimeBudgetError`); see :mod:`kinematics.engine.c
 
 from ..engine.cancel import Cancellation, cancellable
 from .calibration import calibrate, calibration_measurements, calibration_poses
-from .collision import CollisionAnswer, collision, collision_free, collision_matrix
+from .collision import CollisionAnswer, UserPairs, collision, collision_free, collision_matrix
 from .fk import FKAnswer, fk
 from .ik import IKAnswer, ik
 from .ik_all import IKAllAnswer, ik_all, ik_family, ik_path
@@ -48,6 +48,6 @@ __all__ = [
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",
     "SYMBOLIC_WHAT", "SymbolicAnswer", "symbolic", "symbolic_dh", "TaskAnswer", "task", "VelocityAnswer", "velocity",
-    "workspace", "CollisionAnswer", "collision", "collision_free", "collision_matrix",
+    "workspace", "CollisionAnswer", "collision", "collision_free", "collision_matrix", "UserPairs",
     "visual_geometry", "visual_mesh",
 ]

@@ -23,7 +23,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..algorithms import self_collision as _sc
-from ..algorithms.collision_matrix import DEFAULT_SAMPLES, CollisionMatrix
+from ..algorithms.collision_matrix import DEFAULT_SAMPLES, CollisionMatrix, UserPairs
 from ..errors import CollisionError
 from ..model.robot import RobotModel
 from .query import Query
@@ -67,14 +67,15 @@ def collision(query: Query | RobotModel, q: Any, *, distance: bool = False, marg
     """Self-collision of ``q`` (one configuration or a batch, any form the query reads) on the
     enabled pairs of the model's allowed-collision matrix (``samples`` configurations; kept in
     ``cache_dir``). ``margin`` (m, >= 0): closer than that counts as colliding. ``distance``:
-    also the minimum distance, the closest pair and its witness points."""
+    also the minimum distance, the closest pair and its witness points. The query's
+    ``collision_pairs`` (:class:`UserPairs`) allow and forbid pairs."""
     query = Query.of(query, **options)
     if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not np.isfinite(margin) or margin < 0:
         raise CollisionError(f"margin: {margin!r}; give a finite distance >= 0 m")
     Q, is_batch = query.joints(q)
     model = query.robot
     cm = _sc.geometry(model)
-    checked = _sc.matrix(model, _samples(samples), cache_dir=cache_dir).enabled()
+    checked = _sc.matrix(model, _samples(samples), cache_dir=cache_dir, user_pairs=query.collision_pairs).enabled()
     r = cm.check(Q, checked, margin=float(margin), distance=bool(distance))
     return CollisionAnswer(model.q_labels, is_batch, r.colliding, r.pairs, checked, cm.links,
                            cm.warnings + _unchecked(cm.links, checked), r.min_distance, r.closest, r.points)
@@ -95,25 +96,30 @@ def collision_matrix(query: Query | RobotModel, samples: int = DEFAULT_SAMPLES, 
                      cache_dir: os.PathLike | str | None = None, user: Sequence[Sequence[str]] = (),
                      progress: Callable[[int], None] | None = None, **options: Any) -> CollisionMatrix:
     """The model's allowed-collision matrix: ``adjacent``, ``always`` and ``never`` pairs over
-    ``samples`` random configurations (computed once, kept in ``cache_dir``), and ``user`` pairs;
+    ``samples`` random configurations (computed once, kept in ``cache_dir``), and ``user`` pairs
+    disabled; the query's ``collision_pairs`` (:class:`UserPairs`) allowed and forbidden;
     ``progress(k)`` is told the configurations sampled so far."""
     query = Query.of(query, **options)
-    return _sc.matrix(query.robot, _samples(samples), cache_dir=cache_dir, user=user, progress=progress)
+    return _sc.matrix(query.robot, _samples(samples), cache_dir=cache_dir, user=user,
+                      user_pairs=query.collision_pairs, progress=progress)
 
 
 def collision_free(query: Query | RobotModel, Q: Any, *, margin: float = 0.0, samples: int = DEFAULT_SAMPLES,
                    cache_dir: os.PathLike | str | None = None, **options: Any) -> np.ndarray:
     """(N,) bool: which configurations of ``Q`` are free of self-collision (the matrix's enabled
-    pairs; closer than ``margin`` counts as colliding). For IK and workspace filters."""
+    pairs with the query's ``collision_pairs``; closer than ``margin`` counts as colliding)."""
     query = Query.of(query, **options)
     Q, _ = query.joints(Q)
-    return _sc.collision_free(query.robot, Q, margin=margin, samples=_samples(samples), cache_dir=cache_dir)
+    return _sc.collision_free(query.robot, Q, margin=margin, samples=_samples(samples), cache_dir=cache_dir,
+                              user_pairs=query.collision_pairs)
 
 
 def collision_filter(model: RobotModel, field: str, *, samples: int = DEFAULT_SAMPLES, margin: float = 0.0,
-                     cache_dir: os.PathLike | str | None = None) -> Callable[[np.ndarray], np.ndarray]:
+                     cache_dir: os.PathLike | str | None = None,
+                     user_pairs: UserPairs | None = None) -> Callable[[np.ndarray], np.ndarray]:
     """The filter of collision-free IK, paths and workspaces: ``free(Q)`` (R, dof) -> (R,) bool on the
-    matrix's enabled pairs (:func:`kinematics.algorithms.ik_collision.self_collision_filter`).
+    matrix's enabled pairs with ``user_pairs`` (a query's ``collision_pairs``)
+    (:func:`kinematics.algorithms.ik_collision.self_collision_filter`).
 
     A model without collision geometry on any link cannot tell a colliding configuration from a
     free one, so asking ``field`` of it is a :class:`~kinematics.errors.CollisionError` naming the
@@ -131,4 +137,5 @@ def collision_filter(model: RobotModel, field: str, *, samples: int = DEFAULT_SA
         raise CollisionError(f"{field}: model {model.name!r} has no collision geometry{left_out}, so no "
                              "configuration can be told free of self-collision; give a URDF with <collision> "
                              "elements (meshes inside an uploaded archive), or leave the option out")
-    return self_collision_filter(model, samples=_samples(samples), margin=margin, cache_dir=cache_dir)
+    return self_collision_filter(model, samples=_samples(samples), margin=margin, cache_dir=cache_dir,
+                                 user_pairs=user_pairs)

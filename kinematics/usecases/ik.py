@@ -86,18 +86,19 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
         if solutions == "all":
             return answer
         link, T, is_batch, solution = answer
-        model = Query.of(query, **options).robot
+        query = Query.of(query, **options)
+        model = query.robot
         free = None
         if avoid_collisions:  # the nearest of the free solutions; where none is free, no success
-            free = collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)(
-                solution.q)
+            free = collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir,
+                                    user_pairs=query.collision_pairs)(solution.q)
             solution = IKSolution(solution.q, solution.success & free, solution.position_error,
                                   solution.rotation_error, solution.iterations)
         return IKAnswer(model, link, mode, is_batch, T, solution, collision_free=free)
     query = Query.of(query, **options)
     model, budget = query.robot, query.budget
-    free_of = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
-               if avoid_collisions else None)
+    free_of = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir,
+                                user_pairs=query.collision_pairs) if avoid_collisions else None)
     T, is_batch = query.targets(target)
     N = T.shape[0]
     # with avoid_collisions a colliding answer may take COLLISION_ROUNDS more rounds of its restarts

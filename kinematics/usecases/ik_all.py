@@ -112,8 +112,8 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     T, is_batch = query.targets(target)
     N = T.shape[0]
     link = query.frame_link()
-    free = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
-            if avoid_collisions else None)
+    free = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir,
+                             user_pairs=query.collision_pairs) if avoid_collisions else None)
     # the work: candidates x Newton steps per target (the search: its seeds x its steps)
     if detect(reduce_chain(model, link, locked)).closed_form and method != "numeric":
         budget.check_ik_work(N, 15, _ik_all.NEAR_STEPS)
@@ -220,8 +220,8 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
     "reason": "collision"}`` (the matrix of ``collision_samples`` configurations, kept in ``cache_dir``;
     a model without collision geometry is refused)."""
     query = Query.of(query, **options)
-    free = (collision_filter(query.robot, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
-            if avoid_collisions else None)
+    free = (collision_filter(query.robot, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir,
+                             user_pairs=query.collision_pairs) if avoid_collisions else None)
     W, _ = pose_list(waypoints, "waypoints")
     link = query.frame_link()
     q0 = None

@@ -127,7 +127,10 @@ class Query:
     ``floating_base``: compute with the model on a free-flyer root joint (:func:`model_for`);
     ``normalize``: scale quaternions and planar ``(cos, sin)`` to unit norm instead of refusing
     them; ``limits``: ``report`` or ``refuse`` joint values outside their limits; ``verify``:
-    compare with Pinocchio; ``budget``: the caller's :class:`Budget`.
+    compare with Pinocchio; ``budget``: the caller's :class:`Budget`; ``collision_pairs``: the
+    link pairs a user allows and forbids in self-collision checks
+    (:class:`~kinematics.algorithms.collision_matrix.UserPairs`, or its ``{"allow", "forbid"}``;
+    None: the matrix as computed).
 
     Derived when built: ``robot``, the model computed with (``model`` or its floating-base form),
     and ``T_tool``, the (4, 4) ``T_link_tool`` of ``point`` / ``tool`` (None without either).
@@ -144,6 +147,7 @@ class Query:
     limits: str = "report"
     verify: bool = False
     budget: Budget = UNBOUNDED
+    collision_pairs: Any = None
     robot: RobotModel = field(init=False, repr=False)
     T_tool: np.ndarray | None = field(init=False, repr=False)
 
@@ -152,6 +156,9 @@ class Query:
             raise KinematicsError(f"limits: {self.limits!r} is not one of {', '.join(LIMIT_POLICIES)}")
         if self.links is not None and not isinstance(self.links, (str, tuple)):
             object.__setattr__(self, "links", tuple(self.links))  # a frozen query holds no list
+        if isinstance(self.collision_pairs, dict):  # {"allow": [[a, b], ...], "forbid": [...]}
+            from ..algorithms.collision_matrix import UserPairs
+            object.__setattr__(self, "collision_pairs", UserPairs(**self.collision_pairs))
         object.__setattr__(self, "robot", model_for(self.model, self.floating_base))
         object.__setattr__(self, "T_tool", tool_offset(self.point, self.tool))
 

@@ -49,7 +49,8 @@ def workspace(query: Query | RobotModel, link: str | None = None, *, samples: in
     query.budget.check_workspace_samples(samples)
     keep = None
     if collision_free:
-        free = collision_filter(model, "collision_free", samples=collision_samples, cache_dir=cache_dir)
+        free = collision_filter(model, "collision_free", samples=collision_samples, cache_dir=cache_dir,
+                                user_pairs=query.collision_pairs)
         path = compiled.kernel.path_columns(index)
         off = np.setdiff1d(np.arange(model.dof), path)
         middle = middle_of_limits(model)
