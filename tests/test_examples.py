@@ -177,8 +177,8 @@ def test_example_11_self_collision():
     assert deviation(out, "distance deviation from Pinocchio:") < 1e-6
 
 
-def test_example_13_collision_pairs():
-    out = run_example("13_collision_pairs.py")
+def test_example_14_collision_pairs():
+    out = run_example("14_collision_pairs.py")
     assert "colliding pairs: [('base_link', 'upper_arm_link')]" in out
     assert "Pinocchio with coal agrees the pair collides: True" in out
     assert "still in collision: False | pairs checked: 18 -> 18" in out

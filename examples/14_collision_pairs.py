@@ -2,7 +2,7 @@
 called "never" (checked all the same), see them in the matrix and its SRDF; and a pair MoveIt's
 own UR5 SRDF disables as "never" colliding within the limits, by us and by Pinocchio with coal.
 
-Run: python examples/13_collision_pairs.py
+Run: python examples/14_collision_pairs.py
 """
 
 import numpy as np
