@@ -8,7 +8,9 @@ from typing import Literal, Union
 from pydantic import BaseModel, ConfigDict, Field
 
 from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector
-from .ik import IKTolerance
+from kinematics.usecases.ik_options import CollisionAvoidance, IKOptions, SolutionSet
+
+from .ik import IKTolerance, ik_settings
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
 
@@ -66,6 +68,12 @@ class IKPathRequest(QueryRequest):
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
     avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "
                                                                "collision); a model without collision geometry: 422")
+
+    def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
+        """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request (its tolerances,
+        ``locked``, and ``collisions`` when it asks for ``avoid_collisions``)."""
+        return IKOptions(ik_settings(self), SolutionSet(locked=self.locked),
+                         collisions if self.avoid_collisions else None)
 
 
 class PathStop(BaseModel):

@@ -7,17 +7,15 @@ from typing import Any
 
 import numpy as np
 
-from ..algorithms import ik as _ik
 from ..algorithms import ik_all as _ik_all
-from ..algorithms.collision_matrix import DEFAULT_SAMPLES as COLLISION_SAMPLES
 from ..algorithms.ik import IKSolution, inverse_kinematics, middle_of_limits, pose_errors
 from ..algorithms.ik_collision import free_solutions
 from ..algorithms.ik_families import detect, reduce_chain
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
-from .collision import collision_filter
-from .ik_all import SOLUTIONS, ik_all
+from .ik_all import IKAllAnswer, ik_all
+from .ik_options import IKOptions, IKSettings
 from .query import Query
 
 #: with avoid_collisions, rounds of fresh seeds (each with its restarts) for a target whose answer collides
@@ -38,13 +36,8 @@ class IKAnswer:
     collision_free: np.ndarray | None = None  # (N,) with avoid_collisions: the answer is free of self-collision
 
 
-def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = "pose",
-       position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
-       rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE,
-       max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
-       random_seed: int = 0, solutions: str = "one", method: str = "auto", locked: dict | None = None,
-       limits: str = "respect", avoid_collisions: bool = False, collision_samples: int = COLLISION_SAMPLES,
-       cache_dir: Any = None, **options: Any):
+def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKOptions | None = None,
+       **keywords: Any) -> IKAnswer | IKAllAnswer:
     """Joint values putting the query's ``link`` (None: the first leaf link) at ``target``: one pose
     or a list (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array),
     ``T_world_link``. With the query's ``point`` or ``tool`` the targets are poses of that frame,
@@ -58,6 +51,12 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
     ``7 + n`` values; models with floating or planar joints are solved on the configuration
     manifold (:func:`kinematics.algorithms.ik.tree_inverse_kinematics`). Work is bounded by the
     budget's ``max_batch`` (targets), ``max_verify`` and ``max_ik_work``.
+
+    ``options``: how to solve (:class:`~kinematics.usecases.ik_options.IKOptions`, built once), or
+    its fields as keywords (``mode``, ``position_tolerance``, ``rotation_tolerance``,
+    ``max_iterations``, ``restarts``, ``random_seed``; ``solutions``, ``method``, ``locked``,
+    ``limits``; ``avoid_collisions``, ``collision_samples``, ``cache_dir``: :meth:`IKOptions.split`);
+    the other keywords are the query's fields (:meth:`Query.of`).
 
     ``solutions="all"``: **every** solution, an :class:`~kinematics.usecases.ik_all.IKAllAnswer`
     (``method`` ``auto`` / ``analytic`` / ``numeric``, ``locked`` ``{joint: value}``, ``limits``
@@ -73,49 +72,37 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
     :data:`COLLISION_ROUNDS` rounds of fresh seeds within the limits, each with its restarts --
     and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
     """
-    if solutions not in SOLUTIONS:
-        raise KinematicsError(f"solutions: {solutions!r} is not one of {', '.join(SOLUTIONS)}")
-    if method not in ("auto", "analytic", "numeric"):
-        raise KinematicsError(f"method: {method!r} is not one of auto, analytic, numeric")
-    if solutions == "all" or method == "analytic" or locked:
-        answer = ik_all(query, target, seed=seed, mode=mode, position_tolerance=position_tolerance,
-                        rotation_tolerance=rotation_tolerance, method=method, locked=locked, limits=limits,
-                        one=solutions == "one", max_iterations=max_iterations, restarts=restarts,
-                        random_seed=random_seed, avoid_collisions=avoid_collisions,
-                        collision_samples=collision_samples, cache_dir=cache_dir, **options)
-        if solutions == "all":
+    options, rest = IKOptions.split(options, keywords)
+    settings, wanted, avoid = options.settings, options.solutions, options.collisions
+    if wanted.solutions == "all" or wanted.method == "analytic" or wanted.locked:
+        answer = ik_all(query, target, seed=seed, options=options, one=wanted.solutions == "one", **rest)
+        if wanted.solutions == "all":
             return answer
         link, T, is_batch, solution = answer
-        model = Query.of(query, **options).robot
+        model = Query.of(query, **rest).robot
         free = None
-        if avoid_collisions:  # the nearest of the free solutions; where none is free, no success
-            free = collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)(
-                solution.q)
+        if avoid is not None:  # the nearest of the free solutions; where none is free, no success
+            free = avoid.filter(model)(solution.q)
             solution = IKSolution(solution.q, solution.success & free, solution.position_error,
                                   solution.rotation_error, solution.iterations)
-        return IKAnswer(model, link, mode, is_batch, T, solution, collision_free=free)
-    query = Query.of(query, **options)
+        return IKAnswer(model, link, settings.mode, is_batch, T, solution, collision_free=free)
+    query = Query.of(query, **rest)
     model, budget = query.robot, query.budget
-    free_of = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
-               if avoid_collisions else None)
+    free_of = avoid.filter(model) if avoid is not None else None
     T, is_batch = query.targets(target)
     N = T.shape[0]
     # with avoid_collisions a colliding answer may take COLLISION_ROUNDS more rounds of its restarts
-    rounds = COLLISION_ROUNDS + 1 if avoid_collisions else 1
-    budget.check_ik_work(N, rounds * (restarts + 1) - 1, max_iterations)
+    rounds = COLLISION_ROUNDS + 1 if avoid is not None else 1
+    budget.check_ik_work(N, rounds * (settings.restarts + 1) - 1, settings.max_iterations)
     link = query.frame_link()
     seeds = query.seeds(seed, N)
     B = query.base_poses(N)
     B = None if B is None else np.ascontiguousarray(B)
     T_tool = query.T_tool
-    solution = inverse_kinematics(model, link, T, seeds, base=B, mode=mode, position_tolerance=position_tolerance,
-                                  rotation_tolerance=rotation_tolerance, max_iterations=max_iterations,
-                                  restarts=restarts, random_seed=random_seed, tool=T_tool)
+    solution = inverse_kinematics(model, link, T, seeds, base=B, tool=T_tool, **settings.solver())
     free = None
     if free_of is not None:
-        solution, free = _search_free(model, link, T, seeds, B, T_tool, solution, free_of, mode=mode,
-                                      position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
-                                      max_iterations=max_iterations, restarts=restarts, random_seed=random_seed)
+        solution, free = _search_free(model, link, T, seeds, B, T_tool, solution, free_of, settings)
     verification = None
     if query.verify:
         from ..verify.pinocchio import REFERENCE_NAME, reference_for
@@ -125,12 +112,11 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
         T_root = T if B is None else np.matmul(inverse_transform(B), T)
         position, rotation = pose_errors(theirs, T_root)
         verification = {"reference": REFERENCE_NAME, "position_error": position, "rotation_error": rotation}
-    return IKAnswer(model, link, mode, is_batch, T, solution, verification, free)
+    return IKAnswer(model, link, settings.mode, is_batch, T, solution, verification, free)
 
 
-def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, solution: IKSolution, free_of, *,
-                 mode: str, position_tolerance: float, rotation_tolerance: float, max_iterations: int, restarts: int,
-                 random_seed: int) -> tuple[IKSolution, np.ndarray]:
+def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, solution: IKSolution, free_of,
+                 settings: IKSettings) -> tuple[IKSolution, np.ndarray]:
     """Numerical IK that goes on where an answer collides: ``(the solution, collision_free (N,))``.
 
     Targets whose answer succeeded but is in self-collision take, where the chain has a closed form,
@@ -153,9 +139,7 @@ def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, 
         try:
             if detect(reduce_chain(model, link, None, T_tool)).closed_form:
                 sol = _ik_all.all_solutions(model, link, T[todo], base=None if B_all is None else B_all[todo],
-                                            tool=T_tool, seed=start[todo], mode=mode,
-                                            position_tolerance=position_tolerance,
-                                            rotation_tolerance=rotation_tolerance)
+                                            tool=T_tool, seed=start[todo], **settings.tolerances())
                 sol, _ = free_solutions(sol, free_of)
                 has = np.flatnonzero(sol.count > 0)
                 if has.size:
@@ -169,15 +153,13 @@ def _search_free(model: RobotModel, link: str, T: np.ndarray, seeds, B, T_tool, 
     if not full_set:
         lo = np.where(np.isfinite(model.lower_limits), model.lower_limits, -np.pi)
         hi = np.where(np.isfinite(model.upper_limits), model.upper_limits, np.pi)
-        rng = np.random.default_rng([int(random_seed) & 0xFFFFFFFF, 0xC0111DE])
+        rng = np.random.default_rng([int(settings.random_seed) & 0xFFFFFFFF, 0xC0111DE])
         for r in range(COLLISION_ROUNDS):
             if todo.size == 0:
                 break
             S = rng.uniform(lo, hi, (len(todo), model.dof))
             again = inverse_kinematics(model, link, T[todo], S, base=None if B_all is None else B_all[todo],
-                                       mode=mode, position_tolerance=position_tolerance,
-                                       rotation_tolerance=rotation_tolerance, max_iterations=max_iterations,
-                                       restarts=restarts, random_seed=random_seed + 1 + r, tool=T_tool)
+                                       tool=T_tool, **settings.solver(settings.random_seed + 1 + r))
             iterations[todo] += again.iterations
             got = np.flatnonzero(again.success)
             ok = np.zeros(len(todo), bool)
