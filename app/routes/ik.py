@@ -29,7 +29,7 @@ from kinematics.usecases.ik_all import parse_locked as read_locked
 from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
-                       execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
+                       execute, names_headers, npy_response_doc, parse_point, read_request, request_body_doc)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -136,46 +136,11 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
     answer = usecases.ik(req.to_query(rec.model, budget(settings)), req.target, seed=req.seed,
                          options=req.ik_options(collision_avoidance(registry, settings)))
     if isinstance(answer, usecases.IKAllAnswer):
-        return _all_answer(rec.id, answer, request)
-    sol = answer.solution
-    record_ik(sol.success, sol.iterations)
+        if wants_npz(request):
+            return NpzResponse(IKAllResponse.arrays(answer), headers=_npz_headers(
+                answer, **{"X-Family": answer.family, "X-Method": answer.method}))
+        return FastJSONResponse(IKAllResponse.content(rec.id, answer))
+    record_ik(answer.solution.success, answer.solution.iterations)
     if wants_npz(request):
-        headers = _npz_headers(answer)
-        arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
-                  "rotation_error": sol.rotation_error, "iterations": sol.iterations}
-        if answer.collision_free is not None:
-            arrays["collision_free"] = answer.collision_free
-        return NpzResponse(arrays, headers=headers)
-    one = one_or_all(answer.is_batch)
-    verification = None
-    if answer.verification is not None:
-        v = answer.verification
-        verification = {"reference": v["reference"], "position_error": one(v["position_error"]),
-                        "rotation_error": one(v["rotation_error"])}
-    return FastJSONResponse({
-        "model": rec.id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
-        "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
-        "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
-        "collision_free": None if answer.collision_free is None else one(answer.collision_free.tolist()),
-        "verification": verification,
-    })
-
-
-def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
-    """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
-    if wants_npz(request):
-        headers = _npz_headers(answer, **{"X-Family": answer.family, "X-Method": answer.method})
-        arrays = {"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
-                  "singular": answer.singular, "position_error": answer.position_error,
-                  "rotation_error": answer.rotation_error}
-        if answer.colliding is not None:
-            arrays["colliding"] = answer.colliding
-        return NpzResponse(arrays, headers=headers)
-    one = one_or_all(answer.is_batch)
-    return FastJSONResponse({
-        "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
-        "method": answer.method, "family": answer.family, "locked": answer.locked,
-        "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
-        "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
-        "verification": answer.verification,
-    })
+        return NpzResponse(IKResponse.arrays(answer), headers=_npz_headers(answer))
+    return FastJSONResponse(IKResponse.content(rec.id, answer))

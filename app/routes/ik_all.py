@@ -50,9 +50,5 @@ def _path(model_id: str, req: IKPathRequest, registry, settings):
     ans = usecases.ik_path(req.to_query(rec.model, budget(settings)), req.waypoints, seed=req.seed, step=req.step,
                            max_joint_step=req.max_joint_step,
                            options=req.ik_options(collision_avoidance(registry, settings)))
-    return FastJSONResponse({
-        "model": rec.id, "link": req.link or rec.model.leaf_links[0], "family": ans.family,
-        "joint_names": list(rec.model.joint_names), "q": ans.q, "targets": ans.targets,
-        "position_error": ans.position_error, "rotation_error": ans.rotation_error, "fraction": ans.fraction,
-        "complete": ans.complete, "stopped": ans.stopped, "max_joint_step": ans.max_joint_step,
-    })
+    return FastJSONResponse(IKPathResponse.content(rec.id, req.link or rec.model.leaf_links[0], rec.model.joint_names,
+                                                   ans))

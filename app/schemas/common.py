@@ -12,7 +12,7 @@ An operation's request schema derives from it and adds its own fields.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar, Literal, Union
+from typing import Annotated, Any, Callable, ClassVar, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict
 
@@ -117,6 +117,11 @@ class Problem(BaseModel):
 
 #: the fields of :class:`kinematics.Query` a request schema may carry (each is optional on a schema)
 QUERY_FIELDS = ("link", "links", "point", "tool", "base", "floating_base", "normalize", "limits", "verify")
+
+
+def one_or_all(is_batch: bool) -> Callable[[Any], Any]:
+    """Batch unwrapping: the per-configuration values as they are for a batch, else the first one."""
+    return (lambda values: values) if is_batch else (lambda values: values[0])
 
 
 def _plain(value: Any) -> Any:

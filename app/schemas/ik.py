@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance, IKOptions, IKSettings, SolutionSet
 
-from .common import QUERY_FIELDS, BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
+from .common import QUERY_FIELDS, BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector, one_or_all
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -96,6 +96,34 @@ class IKResponse(BaseModel):
     collision_free: Union[bool, list[bool], None] = Field(
         default=None, description="with avoid_collisions: q is free of self-collision")
     verification: IKVerification | None = None
+
+    @staticmethod
+    def content(model_id: str, answer: Any) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.IKAnswer` (a single target unwrapped)."""
+        one = one_or_all(answer.is_batch)
+        sol = answer.solution
+        verification = None
+        if answer.verification is not None:
+            v = answer.verification
+            verification = {"reference": v["reference"], "position_error": one(v["position_error"]),
+                            "rotation_error": one(v["rotation_error"])}
+        return {
+            "model": model_id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
+            "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
+            "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
+            "collision_free": None if answer.collision_free is None else one(answer.collision_free.tolist()),
+            "verification": verification,
+        }
+
+    @staticmethod
+    def arrays(answer: Any) -> dict[str, Any]:
+        """The ``.npz`` answer's arrays of a :class:`kinematics.IKAnswer`."""
+        sol = answer.solution
+        arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
+                  "rotation_error": sol.rotation_error, "iterations": sol.iterations}
+        if answer.collision_free is not None:
+            arrays["collision_free"] = answer.collision_free
+        return arrays
 
 
 
