@@ -41,6 +41,7 @@ from .npy import names_header
 from .registry import MODEL_ID_PATTERN
 from .responses import NPY_MEDIA_TYPE
 from .schemas import Problem
+from .schemas.common import one_or_all  # noqa: F401 (the routes take it from here)
 from .settings import Settings
 
 #: Requests of at most this many configurations are answered on the event loop: their work
@@ -155,11 +156,6 @@ class PlainJSONRoute(APIRoute):
             return await usual(request)
 
         return route
-
-
-def one_or_all(is_batch: bool) -> Callable[[Any], Any]:
-    """Batch unwrapping: the per-configuration values as they are for a batch, else the first one."""
-    return (lambda values: values) if is_batch else (lambda values: values[0])
 
 
 def names_headers(links: list[str], joint_names) -> dict[str, str]:

@@ -22,7 +22,7 @@ Typical use::
     array([ True])
 """
 
-from .usecases import (Budget, CollisionAnswer, FKAnswer, IKAllAnswer, IKAnswer, JacobianAnswer, Query, TaskAnswer,
+from .usecases import (Budget, CollisionAnswer, CollisionAvoidance, IKOptions, IKSettings, SolutionSet, FKAnswer, IKAllAnswer, IKAnswer, JacobianAnswer, Query, TaskAnswer,
                        Verification, VelocityAnswer, calibrate, calibration_poses, collision, collision_free,
                        collision_matrix, fk, ik, ik_all, ik_family, ik_path, jacobian, joint_batch, load_model,
                        symbolic, symbolic_dh, task, velocity, warm_up, workspace)
@@ -56,7 +56,8 @@ __all__ = [
     "Budget", "FKAnswer", "IKAnswer", "JacobianAnswer", "Query", "TaskAnswer", "Verification", "VelocityAnswer", "fk",
     "ik", "jacobian", "joint_batch", "load_model", "symbolic", "symbolic_dh", "task", "velocity", "warm_up",
     "workspace", "CollisionAnswer", "IKAllAnswer", "calibrate", "calibration_poses", "collision", "collision_free",
-    "collision_matrix", "ik_all", "ik_family", "ik_path", "UserPairs",
+    "collision_matrix", "ik_all", "ik_family", "ik_path", "CollisionAvoidance", "IKOptions", "IKSettings", "SolutionSet",
+    "UserPairs",
     "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
     "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",

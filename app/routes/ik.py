@@ -26,9 +26,10 @@ from fastapi import APIRouter, Depends, Query, Request
 from kinematics import usecases
 from kinematics.io.poses import pose_count
 from kinematics.usecases.ik_all import parse_locked as read_locked
+from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
-                       execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
+                       execute, names_headers, npy_response_doc, parse_point, read_request, request_body_doc)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -46,17 +47,22 @@ router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)]
 INLINE_MAX_TARGETS = 1
 #: ... and of at most this many steps, (restarts + 1) x max_iterations (the defaults: 5,100, a few
 #: milliseconds at worst); one target with more may take seconds, so it runs as heavy work
-INLINE_MAX_STEPS = 51 * 100
+INLINE_MAX_STEPS = (DEFAULT_SETTINGS.restarts + 1) * DEFAULT_SETTINGS.max_iterations
 
 
 async def read_ik_request(
     request: Request, settings: SettingsDep, link: LinkQuery = None,
     mode: Annotated[Literal["pose", "position"], Query(description=".npy bodies: pose or position")] = "pose",
-    position_tolerance: Annotated[float, Query(ge=1e-12, description=".npy bodies: metres")] = 1e-6,
-    rotation_tolerance: Annotated[float, Query(ge=1e-12, description=".npy bodies: radians")] = 1e-6,
-    max_iterations: Annotated[int, Query(ge=1, le=10_000, description=".npy bodies: steps per attempt")] = 100,
-    restarts: Annotated[int, Query(ge=0, le=10_000, description=".npy bodies: random restarts")] = 50,
-    random_seed: Annotated[int, Query(ge=0, le=2**63 - 1, description=".npy bodies: restarts' draws")] = 0,
+    position_tolerance: Annotated[float, Query(ge=1e-12, description=".npy bodies: metres")] =
+    DEFAULT_SETTINGS.position_tolerance,
+    rotation_tolerance: Annotated[float, Query(ge=1e-12, description=".npy bodies: radians")] =
+    DEFAULT_SETTINGS.rotation_tolerance,
+    max_iterations: Annotated[int, Query(ge=1, le=10_000, description=".npy bodies: steps per attempt")] =
+    DEFAULT_SETTINGS.max_iterations,
+    restarts: Annotated[int, Query(ge=0, le=10_000, description=".npy bodies: random restarts")] =
+    DEFAULT_SETTINGS.restarts,
+    random_seed: Annotated[int, Query(ge=0, le=2**63 - 1, description=".npy bodies: restarts' draws")] =
+    DEFAULT_SETTINGS.random_seed,
     verify: Annotated[bool, Query(description=".npy bodies: Pinocchio's FK of every answer")] = False,
     point: PointQuery = None, floating_base: FloatingBaseQuery = False, normalize: NormalizeQuery = False,
     solutions: Annotated[Literal["one", "all"], Query(description=".npy bodies: one or all")] = "one",
@@ -114,6 +120,12 @@ def parse_locked(values: list[str] | None) -> dict[str, float] | None:
         raise ProblemError(422, f"locked: {exc}", slug="validation-error", field="locked") from None
 
 
+def collision_avoidance(registry, settings: Settings) -> CollisionAvoidance:
+    """The service's :class:`~kinematics.usecases.ik_options.CollisionAvoidance`: its allowed-collision
+    matrices of ``collision_samples`` configurations, kept in the data directory (as ``/collision``)."""
+    return CollisionAvoidance(settings.collision_samples, collision_cache_dir(registry))
+
+
 def _npz_headers(answer, **extra: str) -> dict[str, str]:
     """The headers of an ``.npz`` answer: ``X-Link``, ``extra``, then the joint order (``X-Joint-Names``)."""
     names = names_headers([answer.link], answer.model.joint_names)
@@ -122,58 +134,15 @@ def _npz_headers(answer, **extra: str) -> dict[str, str]:
 
 def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: Settings):
     rec = registry.get(model_id)
-    tolerance = req.tolerance
-    # the request's limits are the IK policy (respect / ignore), not the joint-value policy of the query
     pairs = user_pairs(registry, rec.id, req) if req.avoid_collisions else None
-    answer = usecases.ik(req.to_query(rec.model, budget(settings), limits="report", collision_pairs=pairs),
-                         req.target, seed=req.seed,
-                         mode=req.mode, position_tolerance=tolerance["position"],
-                         rotation_tolerance=tolerance["rotation"], max_iterations=req.max_iterations,
-                         restarts=req.restarts, random_seed=req.random_seed, solutions=req.solutions,
-                         method=req.method, locked=req.locked, limits=req.limits,
-                         avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,
-                         cache_dir=collision_cache_dir(registry))
+    answer = usecases.ik(req.to_query(rec.model, budget(settings), collision_pairs=pairs), req.target, seed=req.seed,
+                         options=req.ik_options(collision_avoidance(registry, settings)))
     if isinstance(answer, usecases.IKAllAnswer):
-        return _all_answer(rec.id, answer, request)
-    sol = answer.solution
-    record_ik(sol.success, sol.iterations)
+        if wants_npz(request):
+            return NpzResponse(IKAllResponse.arrays(answer), headers=_npz_headers(
+                answer, **{"X-Family": answer.family, "X-Method": answer.method}))
+        return FastJSONResponse(IKAllResponse.content(rec.id, answer))
+    record_ik(answer.solution.success, answer.solution.iterations)
     if wants_npz(request):
-        headers = _npz_headers(answer)
-        arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
-                  "rotation_error": sol.rotation_error, "iterations": sol.iterations}
-        if answer.collision_free is not None:
-            arrays["collision_free"] = answer.collision_free
-        return NpzResponse(arrays, headers=headers)
-    one = one_or_all(answer.is_batch)
-    verification = None
-    if answer.verification is not None:
-        v = answer.verification
-        verification = {"reference": v["reference"], "position_error": one(v["position_error"]),
-                        "rotation_error": one(v["rotation_error"])}
-    return FastJSONResponse({
-        "model": rec.id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
-        "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
-        "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
-        "collision_free": None if answer.collision_free is None else one(answer.collision_free.tolist()),
-        "verification": verification,
-    })
-
-
-def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
-    """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
-    if wants_npz(request):
-        headers = _npz_headers(answer, **{"X-Family": answer.family, "X-Method": answer.method})
-        arrays = {"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
-                  "singular": answer.singular, "position_error": answer.position_error,
-                  "rotation_error": answer.rotation_error}
-        if answer.colliding is not None:
-            arrays["colliding"] = answer.colliding
-        return NpzResponse(arrays, headers=headers)
-    one = one_or_all(answer.is_batch)
-    return FastJSONResponse({
-        "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
-        "method": answer.method, "family": answer.family, "locked": answer.locked,
-        "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
-        "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
-        "verification": answer.verification,
-    })
+        return NpzResponse(IKResponse.arrays(answer), headers=_npz_headers(answer))
+    return FastJSONResponse(IKResponse.content(rec.id, answer))

@@ -13,9 +13,8 @@ from ..adapter import LinkQuery, LockedQuery, budget, error_responses, execute, 
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key
 from ..responses import FastJSONResponse
 from ..schemas import IK_PATH_EXAMPLES, IKFamilyResponse, IKPathRequest, IKPathResponse
-from .collision import cache_dir as collision_cache_dir
+from .ik import collision_avoidance, parse_locked
 from .collision import user_pairs
-from .ik import parse_locked
 
 router = APIRouter(tags=["kinematics"], dependencies=[Depends(require_read_key)])
 
@@ -49,17 +48,9 @@ async def ik_path(model_id: ModelId, req: Annotated[IKPathRequest, Depends(read_
 
 def _path(model_id: str, req: IKPathRequest, registry, settings):
     rec = registry.get(model_id)
-    tol = req.tolerance
     pairs = user_pairs(registry, rec.id, req) if req.avoid_collisions else None
-    ans = usecases.ik_path(req.to_query(rec.model, budget(settings), collision_pairs=pairs), req.waypoints,
-                           seed=req.seed, step=req.step,
-                           max_joint_step=req.max_joint_step, position_tolerance=tol["position"],
-                           rotation_tolerance=tol["rotation"], locked=req.locked,
-                           avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,
-                           cache_dir=collision_cache_dir(registry))
-    return FastJSONResponse({
-        "model": rec.id, "link": req.link or rec.model.leaf_links[0], "family": ans.family,
-        "joint_names": list(rec.model.joint_names), "q": ans.q, "targets": ans.targets,
-        "position_error": ans.position_error, "rotation_error": ans.rotation_error, "fraction": ans.fraction,
-        "complete": ans.complete, "stopped": ans.stopped, "max_joint_step": ans.max_joint_step,
-    })
+    ans = usecases.ik_path(req.to_query(rec.model, budget(settings), collision_pairs=pairs), req.waypoints, seed=req.seed, step=req.step,
+                           max_joint_step=req.max_joint_step,
+                           options=req.ik_options(collision_avoidance(registry, settings)))
+    return FastJSONResponse(IKPathResponse.content(rec.id, req.link or rec.model.leaf_links[0], rec.model.joint_names,
+                                                   ans))

@@ -12,7 +12,7 @@ An operation's request schema derives from it and adds its own fields.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Callable, ClassVar, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict
 
@@ -119,6 +119,11 @@ class Problem(BaseModel):
 QUERY_FIELDS = ("link", "links", "point", "tool", "base", "floating_base", "normalize", "limits", "verify")
 
 
+def one_or_all(is_batch: bool) -> Callable[[Any], Any]:
+    """Batch unwrapping: the per-configuration values as they are for a batch, else the first one."""
+    return (lambda values: values) if is_batch else (lambda values: values[0])
+
+
 def _plain(value: Any) -> Any:
     """A request value as the library reads it: pydantic models (a pose object) as dicts."""
     if isinstance(value, BaseModel):
@@ -129,13 +134,16 @@ def _plain(value: Any) -> Any:
 
 
 class ToQuery:
-    """``to_query``: the :class:`kinematics.Query` of a request schema (of :data:`QUERY_FIELDS`, those it has)."""
+    """``to_query``: the :class:`kinematics.Query` of a request schema (of :attr:`query_fields`, those it has)."""
+
+    #: the request fields that are the query's (a schema whose field of that name means something else leaves it out)
+    query_fields: ClassVar[tuple[str, ...]] = QUERY_FIELDS
 
     def to_query(self, model, budget: Budget = UNBOUNDED, **options: Any) -> Query:
         """The :class:`kinematics.Query` of this request on ``model`` within ``budget`` (``options``
         override fields, e.g. the link a route chose)."""
         fields = type(self).model_fields
-        values = {name: _plain(getattr(self, name)) for name in QUERY_FIELDS if name in fields}
+        values = {name: _plain(getattr(self, name)) for name in self.query_fields if name in fields}
         return Query(model, budget=budget, **{**values, **options})
 
 

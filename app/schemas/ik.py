@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Literal, Union
+from typing import Any, ClassVar, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from .collision import CollisionPairs
-from .common import BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
+from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance, IKOptions, IKSettings, SolutionSet
+
+from .common import QUERY_FIELDS, BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector, one_or_all
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -15,12 +17,16 @@ _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", 
 
 class IKTolerance(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: Number = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
-    rotation: Number = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
-
+    position: Number = Field(default=DEFAULT_SETTINGS.position_tolerance, ge=1e-12,
+                             description="metres between the answer's link origin and the target")
+    rotation: Number = Field(default=DEFAULT_SETTINGS.rotation_tolerance, ge=1e-12,
+                             description="radians: the angle of R_target^T R (pose mode)")
 
 
 class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoid_collisions checks
+    #: the request's ``limits`` is the IK branch policy (``IKOptions.solutions.solution_limits``), not the query's
+    query_fields: ClassVar[tuple[str, ...]] = tuple(f for f in QUERY_FIELDS if f != "limits")
+
     link: str | None = Field(default=None, description="the link to place (default: the first leaf link)")
     target: Union[BasePose, list[BasePose]] = Field(description=_POSE_DESC + "; or a list of those (a batch)")
     seed: Union[JointValues, None] = Field(
@@ -29,10 +35,12 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
     mode: Literal["pose", "position"] = Field(
         default="pose", description="pose: position and orientation; position: the position only (orientation free)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
-    max_iterations: Integer = Field(default=100, ge=1, le=10_000, description="steps per attempt")
-    restarts: Integer = Field(default=50, ge=0, le=10_000,
+    max_iterations: Integer = Field(default=DEFAULT_SETTINGS.max_iterations, ge=1, le=10_000,
+                                    description="steps per attempt")
+    restarts: Integer = Field(default=DEFAULT_SETTINGS.restarts, ge=0, le=10_000,
                           description="attempts from random configurations within the limits after the first")
-    random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="the restarts' draws: same inputs, same answers")
+    random_seed: Integer = Field(default=DEFAULT_SETTINGS.random_seed, ge=0, le=2**63 - 1,
+                                 description="the restarts' draws: same inputs, same answers")
     solutions: Literal["one", "all"] = Field(
         default="one", description="one: a single answer (numerical, or the closed-form solution nearest the seed "
                                    "with method analytic or locked joints); all: every solution")
@@ -51,6 +59,22 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
                                    "pairs): with solutions all the colliding ones are left out (counted in "
                                    "colliding); with one the search goes on until a free answer is found, and "
                                    "success holds only for a free one. A model without collision geometry: 422")
+
+    def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
+        """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request, built once;
+        ``collisions``: the service's allowed-collision matrix (samples, where it is kept), used when the
+        request asks for ``avoid_collisions``."""
+        return IKOptions(ik_settings(self), SolutionSet(self.solutions, self.method, self.locked, self.limits),
+                         collisions if self.avoid_collisions else None)
+
+
+def ik_settings(req: Any) -> IKSettings:
+    """The :class:`~kinematics.usecases.ik_options.IKSettings` of a request with ``tolerance`` (and, where it
+    has them, ``mode``, ``max_iterations``, ``restarts``, ``random_seed``: the defaults otherwise)."""
+    tolerance = req.tolerance
+    return IKSettings(getattr(req, "mode", DEFAULT_SETTINGS.mode), tolerance["position"], tolerance["rotation"],
+                      **{name: getattr(req, name) for name in ("max_iterations", "restarts", "random_seed")
+                         if hasattr(req, name)})
 
 
 class IKVerification(BaseModel):
@@ -73,6 +97,34 @@ class IKResponse(BaseModel):
     collision_free: Union[bool, list[bool], None] = Field(
         default=None, description="with avoid_collisions: q is free of self-collision")
     verification: IKVerification | None = None
+
+    @staticmethod
+    def content(model_id: str, answer: Any) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.IKAnswer` (a single target unwrapped)."""
+        one = one_or_all(answer.is_batch)
+        sol = answer.solution
+        verification = None
+        if answer.verification is not None:
+            v = answer.verification
+            verification = {"reference": v["reference"], "position_error": one(v["position_error"]),
+                            "rotation_error": one(v["rotation_error"])}
+        return {
+            "model": model_id, "link": answer.link, "mode": answer.mode, "joint_names": list(answer.model.joint_names),
+            "q": one(sol.q), "success": one(sol.success.tolist()), "position_error": one(sol.position_error),
+            "rotation_error": one(sol.rotation_error), "iterations": one(sol.iterations.tolist()),
+            "collision_free": None if answer.collision_free is None else one(answer.collision_free.tolist()),
+            "verification": verification,
+        }
+
+    @staticmethod
+    def arrays(answer: Any) -> dict[str, Any]:
+        """The ``.npz`` answer's arrays of a :class:`kinematics.IKAnswer`."""
+        sol = answer.solution
+        arrays = {"q": sol.q, "success": sol.success, "position_error": sol.position_error,
+                  "rotation_error": sol.rotation_error, "iterations": sol.iterations}
+        if answer.collision_free is not None:
+            arrays["collision_free"] = answer.collision_free
+        return arrays
 
 
 

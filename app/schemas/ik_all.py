@@ -3,13 +3,15 @@
 
 from __future__ import annotations
 
-from typing import Literal, Union
+from typing import Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector, one_or_all
+from kinematics.usecases.ik_options import CollisionAvoidance, IKOptions, SolutionSet
+
 from .collision import CollisionPairs
-from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector
-from .ik import IKTolerance
+from .ik import IKTolerance, ik_settings
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
 
@@ -35,6 +37,28 @@ class IKAllResponse(BaseModel):
     colliding: Union[int, list[int], None] = Field(
         default=None, description="with avoid_collisions: solutions left out as in self-collision (per target)")
     verification: dict | None = None
+
+    @staticmethod
+    def content(model_id: str, answer: Any) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.IKAllAnswer`: records per target (a single target unwrapped)."""
+        one = one_or_all(answer.is_batch)
+        return {
+            "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
+            "method": answer.method, "family": answer.family, "locked": answer.locked,
+            "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
+            "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
+            "verification": answer.verification,
+        }
+
+    @staticmethod
+    def arrays(answer: Any) -> dict[str, Any]:
+        """The ``.npz`` answer's arrays of a :class:`kinematics.IKAllAnswer`, padded with NaN."""
+        arrays = {"q": answer.q, "count": answer.count, "within_limits": answer.within_limits,
+                  "singular": answer.singular, "position_error": answer.position_error,
+                  "rotation_error": answer.rotation_error}
+        if answer.colliding is not None:
+            arrays["colliding"] = answer.colliding
+        return arrays
 
 
 class IKFamilyResponse(BaseModel):
@@ -68,6 +92,12 @@ class IKPathRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs 
     avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "
                                                                "collision); a model without collision geometry: 422")
 
+    def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
+        """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request (its tolerances,
+        ``locked``, and ``collisions`` when it asks for ``avoid_collisions``)."""
+        return IKOptions(ik_settings(self), SolutionSet(locked=self.locked),
+                         collisions if self.avoid_collisions else None)
+
 
 class PathStop(BaseModel):
     index: int = Field(description="the target where the path stops")
@@ -87,6 +117,16 @@ class IKPathResponse(BaseModel):
     complete: bool
     stopped: PathStop | None
     max_joint_step: float = Field(description="the largest change of any joint between consecutive rows")
+
+    @staticmethod
+    def content(model_id: str, link: str, joint_names, ans: Any) -> dict[str, Any]:
+        """The JSON answer of a path (:class:`kinematics.algorithms.ik_path.PathAnswer`) of ``link``."""
+        return {
+            "model": model_id, "link": link, "family": ans.family, "joint_names": list(joint_names), "q": ans.q,
+            "targets": ans.targets, "position_error": ans.position_error, "rotation_error": ans.rotation_error,
+            "fraction": ans.fraction, "complete": ans.complete, "stopped": ans.stopped,
+            "max_joint_step": ans.max_joint_step,
+        }
 
 
 IK_PATH_EXAMPLES = {

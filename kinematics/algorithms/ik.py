@@ -124,10 +124,11 @@ def inverse_kinematics(model: RobotModel, link: str, targets: np.ndarray, seeds:
     N = T_root.shape[0]
     Q0 = np.ascontiguousarray(Q0)
     T_root = np.ascontiguousarray(T_root)
-    Q, _, _, steps = poe.kernel.ik(
-        Q0, T_root, li, model.lower_limits, model.upper_limits, model.continuous, model.angular,
-        mode == "position", float(position_tolerance), float(rotation_tolerance), int(max_iterations),
-        int(restarts), ik_kernel.streams(T_root, Q0, np.uint64(int(random_seed) & 0xFFFFFFFFFFFFFFFF)), DAMPING, POLISH, STALL_STEPS, tool=tool)
+    joints = (model.lower_limits, model.upper_limits, model.continuous, model.angular)
+    settings = (mode == "position", float(position_tolerance), float(rotation_tolerance), int(max_iterations),
+                int(restarts), DAMPING, POLISH, STALL_STEPS)
+    streams = ik_kernel.streams(T_root, Q0, np.uint64(int(random_seed) & 0xFFFFFFFFFFFFFFFF))
+    Q, _, _, steps = poe.kernel.ik(Q0, T_root, li, joints, settings, streams, tool=tool)
     # the answer's own errors, measured on its pose from the FK kernel: success is only what they show
     position, rotation, success = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     ik_kernel.measure(poe.fk(Q, [link], tool=tool)[:, 0], T_root, Q, model.lower_limits, model.upper_limits, LIMIT_TOLERANCE,

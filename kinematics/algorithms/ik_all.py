@@ -43,7 +43,7 @@ The Puma 560 reaches a generic pose in eight ways:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -58,6 +58,7 @@ from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE,
 from . import ik_general
 from .ik import pose_errors
 from .ik_families import Chain, Family, detect, reduce_chain, validate_locked
+from .ik_kernels import kernel_of
 
 LIMIT_POLICIES = ("respect", "ignore")
 METHODS = ("auto", "analytic", "numeric")
@@ -80,6 +81,28 @@ CONVERGED = 1e-28
 CLOSED_FORM_MIN_ROWS = 64
 #: σ_min / σ_max of the Jacobian below this: a singular configuration
 SINGULAR = 1e-7
+
+
+class Newton(NamedTuple):
+    """How the compiled pass polishes a candidate: up to ``steps`` Levenberg-Marquardt steps from
+    λ = ``lam0`` (``damped``: bounded steps, a search from seeds), ``middle`` undamped steps for a row
+    that came near a solution, ``final`` more where it is near but not on it; a candidate whose first
+    error (m + rad) is above ``reach`` is dropped unpolished."""
+
+    steps: int
+    lam0: float
+    damped: bool
+    middle: int
+    final: int
+    reach: float
+
+
+#: an exact family's closed form; a near family's (and the elimination of its real chain); the
+#: ik_general kernels' candidates; the multistart search
+EXACT_PASS = Newton(POLISH_STEPS, 1e-12, False, 0, POLISH_STEPS, EXACT_REACH)
+NEAR_PASS = Newton(NEAR_STEPS, 1e-12, False, 0, FINAL_STEPS, np.inf)
+GENERAL_PASS = Newton(POLISH_STEPS, 1e-12, False, 0, POLISH_STEPS, np.inf)
+SEARCH_PASS = Newton(SEARCH_STEPS, 1e-2, True, 6 * POLISH_STEPS, FINAL_STEPS, np.inf)
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,8 +269,8 @@ def _chain_family(model: RobotModel, link: str, locked: dict | None,
     hit = cache.get(key)
     if hit is None:
         chain = reduce_chain(model, link, values, tool)
-        real = tuple(np.ascontiguousarray(a) for a in (chain.h, chain.r, chain.revolute, chain.M))
-        hit = (chain, detect(chain), real + ik_polish.lane_table(chain.h, chain.r, chain.M))
+        hit = (chain, detect(chain), ik_polish.chain_arguments(chain.columns, chain.h, chain.r, chain.revolute,
+                                                               chain.M))
         if len(cache) >= FAMILY_CACHE:
             cache.clear()
         cache[key] = hit
@@ -273,7 +296,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                               f"lock {chain.n - 6} of them (locked)")
     position_only = mode == "position"
     # (a short chain's closed form solves a pose; of a position alone, only the 2R's)
-    short_position = position_only and fam.kernel in ik_general.KERNELS and fam.kernel not in ik_general.POSITION_KERNELS
+    kernel = kernel_of(fam)
+    short_position = position_only and kernel is not None and not kernel.compiled and not kernel.position
     if method == "analytic" and (not fam.closed_form or short_position):
         raise KinematicsError(f"method: 'analytic': the chain to {link} ({fam.name}) has no closed form here; "
                               "use 'auto' or 'numeric'")
@@ -282,8 +306,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                               "so a position alone has infinitely many solutions; give a pose, or lock joints")
     # a family's kernel: its closed form, the elimination, or (the fallback of a spherical wrist on a
     # general arm) the bracketing search
-    use_closed = bool(fam.kernel) and method != "numeric" and (not position_only
-                                                                or fam.kernel in ik_general.POSITION_KERNELS)
+    use_closed = kernel is not None and method != "numeric" and (not position_only or kernel.position)
     poe = compile_model(model)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     N = targets.shape[0]
@@ -295,7 +318,7 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     for name, v in chain.locked.items():
         base_q[:, model.q_index[name]] = v
     degenerate = np.zeros(0, dtype=np.intp)
-    general = fam.kernel in ik_general.KERNELS
+    general = kernel is not None and not kernel.compiled
     if use_closed:
         if general and position_only:  # a 2R's position (numpy)
             cand, counts = ik_general.family_candidates(fam, T_root, position_only)
@@ -307,8 +330,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                 cand, counts = ik_general.family_candidates(fam, T_root, position_only)
                 degenerate = np.flatnonzero(counts < 0)  # the elimination degenerates there: the search joins in
                 Qk, found, pe, re, within, sing = _compiled_pass(
-                    model, chain, real, T_root, base_q, np.ascontiguousarray(cand), np.maximum(counts, 0), False,
-                    POLISH_STEPS, 1e-12, False, 0, POLISH_STEPS, np.inf, position_tolerance, rotation_tolerance)
+                    model, real, T_root, base_q, np.ascontiguousarray(cand), np.maximum(counts, 0), False,
+                    GENERAL_PASS, (position_tolerance, rotation_tolerance))
                 nominal = None
             else:  # candidates, polish, check, duplicates and flags in one compiled pass per target
                 Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(
@@ -380,9 +403,8 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
         return rows, owner, proven
     cand, counts = ik_general.general_6r_candidates(chain, T_root[targets])
     # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
-    Qk, found, *_ = _compiled_pass(model, chain, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
-                                   np.maximum(counts, 0), False, NEAR_STEPS, 1e-12, False, 0, FINAL_STEPS, np.inf,
-                                   position_tolerance, rotation_tolerance)
+    Qk, found, *_ = _compiled_pass(model, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
+                                   np.maximum(counts, 0), False, NEAR_PASS, (position_tolerance, rotation_tolerance))
     more = [Qk[i, :found[i]] for i in range(len(targets))]
     # trusted where it did not degenerate and found again every solution the closed form's polish found
     # (where it misses one of those, its roots are not to be trusted there: the search joins in)
@@ -446,17 +468,18 @@ def _search_compiled(model, chain, real, T_root, base_q, seeds, position_toleran
     N, S = len(T_root), len(seeds)
     cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, chain.n))
     Qk, found, pe, re, within, sing = _compiled_pass(
-        model, chain, real, T_root, base_q, cand, np.full(N, S, dtype=np.int64), False, SEARCH_STEPS, 1e-2, True,
-        6 * POLISH_STEPS, FINAL_STEPS, np.inf, position_tolerance, rotation_tolerance, min_rows=1, piece_rows=1)
+        model, real, T_root, base_q, cand, np.full(N, S, dtype=np.int64), False, SEARCH_PASS,
+        (position_tolerance, rotation_tolerance), min_rows=1, piece_rows=1)
     slot = np.arange(S)[None, :] < found[:, None]
     return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
 
 
-def _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, reversed_, steps, lam0, damped, middle, final,
-                   reach, position_tolerance, rotation_tolerance, before=None, after=None, min_rows=CLOSED_FORM_MIN_ROWS,
-                   piece_rows=None):
+def _compiled_pass(model, real, T_root, base_q, cand, ccount, reversed_, newton: Newton, tolerances, before=None,
+                   after=None, min_rows=CLOSED_FORM_MIN_ROWS, piece_rows=None):
     """:func:`kinematics.engine.ik_polish.polish` of the candidates ``cand`` (N, C, n), ``ccount`` (N,)
-    of targets ``T_root`` over the engine's threads; ``before(a, b)`` and ``after(a, b)`` run on the same
+    of targets ``T_root`` over the engine's threads: ``real``, the chain as
+    :func:`~kinematics.engine.ik_polish.chain_arguments` gives it; ``newton``, how it polishes;
+    ``tolerances``, ``(position, rotation)``. ``before(a, b)`` and ``after(a, b)`` run on the same
     thread before and after each row range (a family's kernel writing the candidates, a near family's
     reference count). Returns q (N, C, dof) NaN-padded, count (N,), position and rotation errors
     (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular)."""
@@ -467,15 +490,15 @@ def _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, reversed_, 
     within = np.zeros((N, C), bool)
     sing = np.zeros((N, C), np.int8)
     T_root = np.ascontiguousarray(T_root)
-    cols = np.ascontiguousarray(chain.columns, dtype=np.intp)
-    lower, upper = np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits)
+    limits = (np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits), LIMIT_TOLERANCE)
+    settings = ik_polish.polish_settings(newton.steps, newton.lam0, newton.damped, newton.middle, TIGHT, newton.final,
+                                         newton.reach, *tolerances, DUPLICATE, SINGULAR)
+    outputs = (Qk, found, pe, re, within, sing)
 
     def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
         if before is not None:
             before(a, b)
-        ik_polish.polish(cand, ccount, reversed_, T_root, base_q, cols, *real, steps, lam0, damped, middle, TIGHT,
-                         final, reach, position_tolerance, rotation_tolerance, DUPLICATE, lower, upper,
-                         LIMIT_TOLERANCE, SINGULAR, a, b, Qk, found, pe, re, within, sing)
+        ik_polish.polish(cand, ccount, reversed_, T_root, base_q, real, settings, limits, a, b, outputs)
         if after is not None:
             after(a, b)
 
@@ -484,13 +507,15 @@ def _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, reversed_, 
 
 
 def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance):
-    """Every solution by the family's compiled kernel and :func:`_compiled_pass`: the arrays of
-    :func:`_compiled_pass` and the ideal chain's counts (N,; a near family, else None)."""
+    """Every solution by the family's compiled kernel (:mod:`.ik_kernels`) and :func:`_compiled_pass`:
+    the arrays of :func:`_compiled_pass` and the ideal chain's counts (N,; a near family, else None)."""
     ideal = fam.ideal
     goals = inverse_transform(T_root) if fam.reversed else T_root
     # row by row (not a batched BLAS product): a target alone gets its batch answer
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
-    C = ik_closed.MAX_CANDIDATES if fam.kernel == "spherical_wrist_search" else ik_fast.FAMILY_CANDIDATES
+    kernel = kernel_of(fam)
+    C = kernel.candidates
+    write = kernel.bind(fam)
     N = G.shape[0]
     cand = np.empty((N, C, 6))
     ccount = np.zeros(N, dtype=np.int64)
@@ -498,29 +523,19 @@ def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tol
     nominal = np.zeros(N, dtype=np.int64) if fam.near else None
     cand0 = np.empty((N, C, 6)) if fam.near else None
     count0 = np.zeros(N, dtype=np.int64)
-    h, r = np.ascontiguousarray(ideal.h), np.ascontiguousarray(ideal.r)
-    centre = np.ascontiguousarray(fam.centre)
-    prismatic3 = not bool(ideal.revolute[2])
     goals = np.ascontiguousarray(goals)
-    ideal_chain = (h, r, np.ascontiguousarray(ideal.revolute), np.ascontiguousarray(ideal.M))
+    ideal_chain = tuple(np.ascontiguousarray(a) for a in (ideal.h, ideal.r, ideal.revolute, ideal.M))
 
     def candidates(a, b, width, out, n):
-        if fam.kernel == "spherical_wrist_search":
-            ik_fast.spherical_wrist_search(G[a:b], h, r, centre, ik_fast.SEARCH_SAMPLES, out[a:b], n[a:b], flag[a:b])
-        elif fam.kernel == "spherical_wrist":
-            ik_fast.spherical_wrist(G[a:b], h, r, prismatic3, centre, fam.position, width, out[a:b], n[a:b], flag[a:b])
-        else:
-            ik_fast.three_parallel(G[a:b], h, r, centre, width, out[a:b], n[a:b], flag[a:b])
+        write(G[a:b], width, out[a:b], n[a:b], flag[a:b])
 
     def reference(a, b):  # a near family: the ideal chain's own count
         candidates(a, b, 0.0, cand0, count0)
         ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
                           a, b, nominal)
 
-    out = _compiled_pass(model, chain, real, T_root, base_q, cand, ccount, fam.reversed,
-                         NEAR_STEPS if fam.near else POLISH_STEPS, 1e-12, False, 0,
-                         FINAL_STEPS if fam.near else POLISH_STEPS, np.inf if fam.near else EXACT_REACH,
-                         position_tolerance, rotation_tolerance,
+    out = _compiled_pass(model, real, T_root, base_q, cand, ccount, fam.reversed, NEAR_PASS if fam.near else EXACT_PASS,
+                         (position_tolerance, rotation_tolerance),
                          before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),
                          after=reference if fam.near else None)
     return out + (nominal,)

@@ -25,6 +25,7 @@ the closed form of the ideal chain seeds Newton steps on the real one.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
@@ -279,49 +280,97 @@ def _try_forward(ch: Chain, angle: float, distance: float) -> Family | None:
     return None
 
 
-def detect(ch: Chain) -> Family:
-    """The family of the chain ``ch`` (exact first, then near; forwards first, then reversed)."""
-    if ch.mimic:
-        return Family("mimic", (), False, None, ch)
-    if ch.n > 6:
-        return Family("redundant", (), False, None, ch)
-    if ch.n == 6:
-        for angle, distance, near in ((EXACT_ANGLE, EXACT_DISTANCE, False), (NEAR_ANGLE, NEAR_DISTANCE, True)):
-            fam = _try_forward(ch, angle, distance)
-            if fam is not None:
-                return replace(fam, near=near)
-            rch = ch.reversed()
-            fam = _try_forward(rch, angle, distance)
-            if fam is not None:
-                name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
-                    else fam.name + "_reversed"
-                return replace(fam, name=name, chain=ch, reversed=True, near=near)
-    # ---- chains with no subproblem family: the closed forms and the elimination of ik_general
-    if ch.n < 6 and ch.n > 0:
-        # a short chain: planar when every axis is parallel to the first revolute one (2R, 3R, SCARA)
-        kernel = ik_general.short_kernel(ch)
-        if kernel == "rpr":
-            return Family("rpr", (1,), True, 1, ch, ch, kernel=kernel)
-        rev = np.flatnonzero(ch.revolute)
-        ref = ch.h[rev[0]] if rev.size else ch.h[0]
-        if all(_angle(ref, h) < EXACT_ANGLE for h in ch.h):
-            return Family("planar", (3, 1) if kernel else (), bool(kernel), 2 if rev.size >= 2 else 1, ch,
-                          ch if kernel else None, kernel=kernel)
-        return Family("short_chain", (), False, None, ch)
-    if ch.n == 6:
-        # a slide, then three parallel axes between two others (Wen's Rhino arm): closed form
-        for c, rev in ((ch, False), (ch.reversed(), True)):
-            if ik_general.prismatic_parallel(c):
-                return Family("prismatic_three_parallel" + ("_reversed" if rev else ""), (2, 1, 3, 1), True, 4, ch,
-                              c, reversed=rev, kernel="prismatic_three_parallel")
-        # every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem), on the
-        # chain or, where its geometry makes the elimination degenerate, on the reversed chain
-        if ik_general.usable(ch):
-            return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+def _mimic(ch: Chain) -> Family | None:
+    return Family("mimic", (), False, None, ch) if ch.mimic else None
+
+
+def _redundant(ch: Chain) -> Family | None:
+    return Family("redundant", (), False, None, ch) if ch.n > 6 else None
+
+
+def _subproblem_family(ch: Chain) -> Family | None:
+    """The subproblem families of a 6-joint chain (exact first, then near; forwards first, then reversed)."""
+    if ch.n != 6:
+        return None
+    for angle, distance, near in ((EXACT_ANGLE, EXACT_DISTANCE, False), (NEAR_ANGLE, NEAR_DISTANCE, True)):
+        fam = _try_forward(ch, angle, distance)
+        if fam is not None:
+            return replace(fam, near=near)
         rch = ch.reversed()
-        if ik_general.usable(rch):
-            return Family("general_6r", (1,), True, 16, ch, rch, reversed=True, kernel="general_6r")
-        # degenerate both ways (a Jaco-like wrist): the elimination on a cyclic shift of the loop, per target
-        if ik_general.usable(ch, shifts=True):
-            return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+        fam = _try_forward(rch, angle, distance)
+        if fam is not None:
+            name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
+                else fam.name + "_reversed"
+            return replace(fam, name=name, chain=ch, reversed=True, near=near)
+    return None
+
+
+def _short_chain(ch: Chain) -> Family | None:
+    """A chain of fewer than six joints: planar when every axis is parallel to the first revolute one
+    (2R, 3R, SCARA), ``rpr``, else ``short_chain`` (the search)."""
+    if not 0 < ch.n < 6:
+        return None
+    kernel = ik_general.short_kernel(ch)
+    if kernel == "rpr":
+        return Family("rpr", (1,), True, 1, ch, ch, kernel=kernel)
+    rev = np.flatnonzero(ch.revolute)
+    ref = ch.h[rev[0]] if rev.size else ch.h[0]
+    if all(_angle(ref, h) < EXACT_ANGLE for h in ch.h):
+        return Family("planar", (3, 1) if kernel else (), bool(kernel), 2 if rev.size >= 2 else 1, ch,
+                      ch if kernel else None, kernel=kernel)
+    return Family("short_chain", (), False, None, ch)
+
+
+def _prismatic_three_parallel(ch: Chain) -> Family | None:
+    """A slide, then three parallel axes between two others (Wen's Rhino arm): closed form."""
+    if ch.n != 6:
+        return None
+    for c, rev in ((ch, False), (ch.reversed(), True)):
+        if ik_general.prismatic_parallel(c):
+            return Family("prismatic_three_parallel" + ("_reversed" if rev else ""), (2, 1, 3, 1), True, 4, ch,
+                          c, reversed=rev, kernel="prismatic_three_parallel")
+    return None
+
+
+def _general_6r(ch: Chain) -> Family | None:
+    """Every solution by the 16-degree Raghavan-Roth elimination (an eigenvalue problem), on the chain
+    or, where its geometry makes the elimination degenerate, on the reversed chain, or on a cyclic
+    shift of the loop per target (degenerate both ways: a Jaco-like wrist)."""
+    if ch.n != 6:
+        return None
+    if ik_general.usable(ch):
+        return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+    rch = ch.reversed()
+    if ik_general.usable(rch):
+        return Family("general_6r", (1,), True, 16, ch, rch, reversed=True, kernel="general_6r")
+    if ik_general.usable(ch, shifts=True):
+        return Family("general_6r", (1,), True, 16, ch, ch, kernel="general_6r")
+    return None
+
+
+#: the family detectors, tried in order by :func:`detect`: ``(name, detector(chain) -> Family | None)``;
+#: a chain none of them claims is ``general`` (the multistart search)
+DETECTORS: list[tuple[str, Callable[[Chain], Family | None]]] = [
+    ("mimic", _mimic),
+    ("redundant", _redundant),
+    ("subproblems", _subproblem_family),
+    ("short_chain", _short_chain),
+    ("prismatic_three_parallel", _prismatic_three_parallel),
+    ("general_6r", _general_6r),
+]
+
+
+def register_family(name: str, detector: Callable[[Chain], Family | None], before: str | None = None) -> None:
+    """Add a family's ``detector`` to :data:`DETECTORS` (before the one named ``before``; None: last).
+    Its families name their kernel (:mod:`kinematics.algorithms.ik_kernels`)."""
+    names = [n for n, _ in DETECTORS]
+    DETECTORS.insert(names.index(before) if before is not None else len(DETECTORS), (name, detector))
+
+
+def detect(ch: Chain) -> Family:
+    """The family of the chain ``ch``: the first of :data:`DETECTORS` that claims it, else ``general``."""
+    for _, detector in DETECTORS:
+        fam = detector(ch)
+        if fam is not None:
+            return fam
     return Family("general", (), False, 16 if ch.n == 6 else None, ch)

@@ -9,6 +9,7 @@ row per solution with its target's index (:mod:`kinematics.algorithms.ik_all`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
@@ -18,16 +19,10 @@ import numpy as np
 from .. import api
 from ..usecases import Query
 from ..usecases.ik_all import parse_locked as read_locked
-from ..algorithms.ik import (
-    DEFAULT_MAX_ITERATIONS,
-    DEFAULT_POSITION_TOLERANCE,
-    DEFAULT_RESTARTS,
-    DEFAULT_ROTATION_TOLERANCE,
-    IK_MODES,
-    MIN_TOLERANCE,
-)
+from ..algorithms.ik import IK_MODES, MIN_TOLERANCE
+from ..usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance, IKOptions, IKSettings, SolutionSet
 from ..errors import JointValueError
-from .collision import add_filter_options, filter_options
+from .collision import add_filter_options, user_pairs
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
 from .pipeline import (
@@ -81,16 +76,14 @@ def register(sub) -> None:
     p.add_argument("--link", metavar="NAME", help="the link placed at the targets (default: the model's first leaf link)")
     p.add_argument("--mode", choices=IK_MODES, default="pose",
                    help="pose: position and orientation; position: the position only (default pose)")
-    p.add_argument("--position-tolerance", type=float, default=DEFAULT_POSITION_TOLERANCE, metavar="M",
-                   help=f"metres (default {DEFAULT_POSITION_TOLERANCE:g})")
-    p.add_argument("--rotation-tolerance", type=float, default=DEFAULT_ROTATION_TOLERANCE, metavar="RAD",
-                   help=f"radians (default {DEFAULT_ROTATION_TOLERANCE:g}; ignored in position mode)")
-    p.add_argument("--max-iterations", type=int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
-                   help=f"steps per attempt (default {DEFAULT_MAX_ITERATIONS})")
-    p.add_argument("--restarts", type=int, default=DEFAULT_RESTARTS, metavar="N",
-                   help=f"random restarts after the first attempt (default {DEFAULT_RESTARTS})")
-    p.add_argument("--random-seed", type=int, default=0, metavar="N",
-                   help="seed of the restarts' draws (default 0; the same inputs give the same answers)")
+    add_tolerance_options(p)
+    p.add_argument("--max-iterations", type=int, default=DEFAULT_SETTINGS.max_iterations, metavar="N",
+                   help=f"steps per attempt (default {DEFAULT_SETTINGS.max_iterations})")
+    p.add_argument("--restarts", type=int, default=DEFAULT_SETTINGS.restarts, metavar="N",
+                   help=f"random restarts after the first attempt (default {DEFAULT_SETTINGS.restarts})")
+    p.add_argument("--random-seed", type=int, default=DEFAULT_SETTINGS.random_seed, metavar="N",
+                   help=f"seed of the restarts' draws (default {DEFAULT_SETTINGS.random_seed}; the same inputs give "
+                   "the same answers)")
     p.add_argument("--seed", metavar="Q1,Q2,...",
                    help="starting joint values for every target, dof numbers in joint order (default: the "
                    "middle of the limits; write --seed=-0.5,... when the first is negative)")
@@ -111,6 +104,25 @@ def register(sub) -> None:
     add_filter_options(p, "--avoid-collisions", "answers free of self-collision only: with --all the colliding "
                        "solutions are left out; else the search goes on until a free answer is found (success only "
                        "when free)")
+
+
+def add_tolerance_options(p) -> None:
+    """``--position-tolerance`` and ``--rotation-tolerance`` (``kinematics ik``, ``ik-path``)."""
+    p.add_argument("--position-tolerance", type=float, default=DEFAULT_SETTINGS.position_tolerance, metavar="M",
+                   help=f"metres (default {DEFAULT_SETTINGS.position_tolerance:g})")
+    p.add_argument("--rotation-tolerance", type=float, default=DEFAULT_SETTINGS.rotation_tolerance, metavar="RAD",
+                   help=f"radians (default {DEFAULT_SETTINGS.rotation_tolerance:g}; ignored in position mode)")
+
+
+def ik_options(args, wanted: SolutionSet = SolutionSet()) -> IKOptions:
+    """The :class:`~kinematics.usecases.ik_options.IKOptions` of a command line (checked by
+    :func:`_bad_option` first) asking for ``wanted``, built once for every chunk: the solver's settings
+    that the command has (``kinematics ik``: all; ``ik-path``: none, the defaults) and
+    ``--avoid-collisions`` with its matrix (:func:`~kinematics.cli.collision.add_filter_options`)."""
+    names = [f.name for f in dataclasses.fields(IKSettings)]
+    settings = IKSettings(**{name: getattr(args, name) for name in names if hasattr(args, name)})
+    collisions = CollisionAvoidance(args.collision_samples, args.collision_cache) if args.avoid_collisions else None
+    return IKOptions(settings, wanted, collisions)
 
 
 def run_ik(args) -> int:
@@ -161,7 +173,9 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
 
         collision_filter(model, "avoid_collisions", samples=args.collision_samples)
     names = list(model.joint_names)
-    query = Query(model, link=link, verify=args.verify)  # the request shape, built once for every chunk
+    query = Query(model, link=link, verify=args.verify,  # the request shape, built once for every chunk
+                  collision_pairs=user_pairs(args))
+    options = ik_options(args, SolutionSet("all", args.method, locked or None, args.limits))
     total = unsolved = rows = colliding = 0
     family = method = "?"
     out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
@@ -170,10 +184,7 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
             out.write(",".join(["target", *names, "position_error", "rotation_error", "within_limits", "singular"]) + "\n")
         with open_input(args, model, source, in_fmt, targets=True) as targets:
             for start, T in targets:
-                a = api.ik(query, T, seed=seed, mode=args.mode, solutions="all", method=args.method,
-                           limits=args.limits, locked=locked or None, position_tolerance=args.position_tolerance,
-                           rotation_tolerance=args.rotation_tolerance, avoid_collisions=args.avoid_collisions,
-                           **filter_options(args))
+                a = api.ik(query, T, seed=seed, options=options)
                 family, method = a.family, a.method
                 if a.colliding is not None:
                     colliding += int(a.colliding.sum())
@@ -222,7 +233,9 @@ def _bad_option(args) -> str | None:
 def _solve(args, model, link: str, seed) -> int:
     source, in_fmt, dest, out_fmt = _endpoints(args)
     summary = _Summary(args)
-    query = Query(model, link=link, verify=args.verify)  # the request shape, built once for every chunk
+    query = Query(model, link=link, verify=args.verify,  # the request shape, built once for every chunk
+                  collision_pairs=user_pairs(args))
+    options = ik_options(args)
     t0 = time.perf_counter()
     with open_input(args, model, source, in_fmt, targets=True) as targets:
         bar = progress(total=targets.total, desc="ik", unit="target", mininterval=0)
@@ -231,12 +244,7 @@ def _solve(args, model, link: str, seed) -> int:
                 for start, T in targets:
                     times = chunk_times(targets, start, T.shape[0])
                     for s in bar_steps(T.shape[0]):  # parts, so that the bar moves (each target's answer is its own)
-                        answer = api.ik(query, T[s], seed=seed, mode=args.mode,
-                                        position_tolerance=args.position_tolerance,
-                                        rotation_tolerance=args.rotation_tolerance,
-                                        max_iterations=args.max_iterations, restarts=args.restarts,
-                                        random_seed=args.random_seed, avoid_collisions=args.avoid_collisions,
-                                        **filter_options(args))
+                        answer = api.ik(query, T[s], seed=seed, options=options)
                         writer.write(answer.solution, times[s])
                         summary.add(start + s.start, answer)
                         bar.update(s.stop - s.start)

@@ -16,8 +16,9 @@ import numpy as np
 from .. import api
 from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
 from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
-from .collision import add_filter_options, filter_options
-from .ik import parse_locked
+from ..usecases.ik_options import SolutionSet
+from .collision import add_filter_options, user_pairs
+from .ik import ik_options, parse_locked
 from .pipeline import _fail, _quietly, model_or_exit_code, open_input
 
 
@@ -63,9 +64,10 @@ def _run(args, model, seed, locked) -> int:
     fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
     with open_input(args, model, source, fmt, targets=True) as rows:
         W = np.concatenate([T for _, T in rows])
-    ans = api.ik_path(model, W, link=args.link, seed=seed, locked=locked or None, max_joint_step=args.max_joint_step,
+    ans = api.ik_path(model, W, link=args.link, seed=seed, max_joint_step=args.max_joint_step,
+                      collision_pairs=user_pairs(args),
                       step={"position": args.step_position, "rotation": args.step_rotation},
-                      avoid_collisions=args.avoid_collisions, **filter_options(args))
+                      options=ik_options(args, SolutionSet(locked=locked or None)))
     out = sys.stdout if args.output == "-" else open(args.output, "w", encoding="utf-8")
     try:
         out.write(",".join(model.joint_names) + "\n")

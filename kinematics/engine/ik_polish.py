@@ -66,6 +66,20 @@ def lane_table(h: np.ndarray, r: np.ndarray, M: np.ndarray) -> tuple[np.ndarray,
     return table, np.ascontiguousarray(inverse_transform(G[-1]) @ M)
 
 
+def chain_arguments(columns: np.ndarray, h: np.ndarray, r: np.ndarray, rev: np.ndarray, M: np.ndarray) -> tuple:
+    """The real chain as :func:`polish` takes it: ``(columns, h, r, rev, M, table, D)``, contiguous,
+    with :func:`lane_table`'s form."""
+    arrays = tuple(np.ascontiguousarray(x) for x in (h, r, rev, M))
+    return (np.ascontiguousarray(columns, dtype=np.intp),) + arrays + lane_table(arrays[0], arrays[1], arrays[3])
+
+
+def polish_settings(steps: int, lam0: float, damped: bool, middle: int, tight: float, final: int, reach: float,
+                    ptol: float, rtol: float, dup: float, singular: float) -> tuple:
+    """The settings of :func:`polish` as one tuple of fixed types (one compiled signature)."""
+    return (int(steps), float(lam0), bool(damped), int(middle), float(tight), int(final), float(reach), float(ptol),
+            float(rtol), float(dup), float(singular))
+
+
 @nb.njit(inline="always", **_JIT)
 def chain_fk(h, r, rev, M, x, F, W, O, sn, cs):
     """``F = E_1(x_1) ... E_n(x_n) M`` (4, 4); ``W[j]``, ``O[j]``: joint j's axis and axis point in
@@ -464,10 +478,14 @@ def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, X, F, S,
 
 
 @nb.njit(**_JIT)
-def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table, D, steps, lam0, damped, middle, tight,
-           final, reach, ptol, rtol, dup, lower, upper, limit_tol, singular, a, b_, Q, count, pe, re, within, sing):
+def polish(cand, ccount, reversed_, targets, base, chain, settings, limits, a, b_, outputs):
     """The solutions of targets ``a..b_`` (see the module text); returns nothing, fills the outputs.
-    ``table``, ``D``: the real chain in :func:`lane_table`'s form. The candidates of up to
+
+    The arguments grouped as tuples (:func:`chain_arguments`, :func:`polish_settings`):
+    ``chain = (columns, h, r, rev, M, table, D)``, the real chain (``table``, ``D``: in
+    :func:`lane_table`'s form); ``settings = (steps, lam0, damped, middle, tight, final, reach, ptol,
+    rtol, dup, singular)``; ``limits = (lower, upper, limit_tol)``; ``outputs = (Q, count, pe, re,
+    within, sing)``. The candidates of up to
     :data:`LANE_TARGETS` targets (:data:`LANE_CANDIDATES` candidates) at a time first get
     :func:`lane_stage`, which maps and wraps them; a candidate it finds on its solution to ``tight``
     (most closed-form candidates) skips the scalar measure, and its singular flag comes from the
@@ -475,6 +493,10 @@ def polish(cand, ccount, reversed_, targets, base, columns, h, r, rev, M, table,
     λ = ``lam0`` with steps of at most 0.5 per joint, then ``middle`` undamped steps for a row that
     came within 1e-2 of a solution. A candidate whose first error (m + rad) is above ``reach`` is
     dropped unpolished."""
+    columns, h, r, rev, M, table, D = chain
+    steps, lam0, damped, middle, tight, final, reach, ptol, rtol, dup, singular = settings
+    lower, upper, limit_tol = limits
+    Q, count, pe, re, within, sing = outputs
     n = h.shape[0]
     C = Q.shape[1]
     dof = base.shape[1]

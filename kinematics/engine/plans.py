@@ -347,15 +347,18 @@ class Kernel:
         return J
 
     # ------------------------------------------------------------------ inverse kinematics
-    def ik(self, Q: np.ndarray, targets: np.ndarray, link_index: int, lower: np.ndarray, upper: np.ndarray,
-           wrap: np.ndarray, angular: np.ndarray, position_only: bool, tol_position: float, tol_rotation: float, max_iterations: int,
-           restarts: int, streams: np.ndarray, damping: float, polish: float, stall: int,
-           tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def ik(self, Q: np.ndarray, targets: np.ndarray, link_index: int, joints: tuple, settings: tuple,
+           streams: np.ndarray, tool: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Inverse kinematics (:func:`kinematics.engine.ik.solve`) of link ``link_index`` for targets
         ``T_root_link`` (N, 4, 4) from seeds ``Q`` (N, dof): ``(Q, position_error, rotation_error,
-        steps)`` of the best configurations found. Only the path's q columns move. ``tool``:
+        steps)`` of the best configurations found. ``joints``: ``(lower, upper, wrap, angular)``, the
+        model's joint arrays; ``settings``: ``(position_only, tol_position, tol_rotation, max_iterations,
+        restarts, damping, polish, stall)``; ``streams``: the restarts' random streams per target. Only
+        the path's q columns move. ``tool``:
         ``T_link_tool`` (4, 4): the targets are the tool frame's poses; the solver is unchanged, it
         places ``F_last · D`` and the tool only turns the link's constant ``D`` into ``D @ T_link_tool``."""
+        lower, upper, wrap, angular = joints
+        position_only, tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall = settings
         path, D = self.path_plan(link_index)
         D = with_tool(D, tool)
         N = Q.shape[0]
