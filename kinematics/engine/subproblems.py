@@ -257,6 +257,18 @@ def sp2(p1, p2, k1, k2):
 
 
 
+#: a subproblem 6 answer is exact when both equations hold within this, relative to the data's size
+SP6_RESIDUAL = 1e-12
+#: roots of the quartic with an imaginary part below this (relative) are real; up to ``SP6_NEAR_REAL``
+#: a root may be half of a near-double pair that rounding pushed off the real line: it is polished
+#: and kept only if it then solves the equations
+SP6_REAL, SP6_NEAR_REAL = 1e-7, 1e-3
+#: Newton steps that polish each root on the two equations themselves
+SP6_NEWTON = 30
+#: two answers closer than this in both angles are one
+SP6_SAME = 1e-9
+
+
 @nb.njit(**_JIT)
 def _terms(h, k, p):
     """``hᵀ R(k, θ) p = a cos θ + b sin θ + c``: (a, b, c)."""
@@ -266,38 +278,61 @@ def _terms(h, k, p):
 
 
 @nb.njit(**_JIT)
-def sp6(h, k, p, d1, d2):
-    """θ1 (4,), θ2 (4,), count and flag of Elias & Wen's subproblem 6:
+def _sp6_residual(L, e1, e2, t1, t2):
+    """The two equations' errors at (θ1, θ2), ``L = (a1, b1, a2, b2, a3, b3, a4, b4)`` the cosine and
+    sine coefficients of the four terms (θ1, θ2, θ1, θ2)."""
+    c1, s1, c2, s2 = math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)
+    return (L[0] * c1 + L[1] * s1 + L[2] * c2 + L[3] * s2 - e1,
+            L[4] * c1 + L[5] * s1 + L[6] * c2 + L[7] * s2 - e2)
 
-        h[0]ᵀ R(k[0], θ1) p[0] + h[1]ᵀ R(k[1], θ2) p[1] = d1
-        h[2]ᵀ R(k[2], θ1) p[2] + h[3]ᵀ R(k[3], θ2) p[3] = d2
 
-    (``h``, ``k``, ``p``: (4, 3)). Each term is linear in ``x1 = (cos θ1, sin θ1)`` or
-    ``x2 = (cos θ2, sin θ2)``: ``A x1 + B x2 = e``. With B invertible, ``x2 = B⁻¹ (e − A x1)`` and
-    ``|x2|² = 1`` is a quadratic form in x1; ``t = tan(θ1 / 2)`` makes it a quartic (up to four
-    solutions, θ1 = π checked apart). Degenerate when B is singular (swap the roles: the caller
-    may exchange the two joints)."""
-    t1 = np.zeros(4)
-    t2 = np.zeros(4)
-    a1, b1, c1 = _terms(h[0], k[0], p[0])
-    a2, b2, c2 = _terms(h[1], k[1], p[1])
-    a3, b3, c3 = _terms(h[2], k[2], p[2])
-    a4, b4, c4 = _terms(h[3], k[3], p[3])
-    e1, e2 = d1 - c1 - c2, d2 - c3 - c4
+@nb.njit(**_JIT)
+def _sp6_polish(L, e1, e2, t1, t2):
+    """Newton on the two equations from (θ1, θ2) (Levenberg-damped where the Jacobian is singular, as
+    at a double root); a step that does not lower the error is refused. ``(θ1, θ2, max |error|)``."""
+    f1, f2 = _sp6_residual(L, e1, e2, t1, t2)
+    err = max(abs(f1), abs(f2))
+    for _ in range(SP6_NEWTON):
+        if err == 0.0:
+            break
+        c1, s1, c2, s2 = math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)
+        j11, j12 = L[1] * c1 - L[0] * s1, L[3] * c2 - L[2] * s2
+        j21, j22 = L[5] * c1 - L[4] * s1, L[7] * c2 - L[6] * s2
+        # (JᵀJ + λI) δ = −Jᵀ f, λ tiny: Newton's step where J is regular
+        g11 = j11 * j11 + j21 * j21
+        g12 = j11 * j12 + j21 * j22
+        g22 = j12 * j12 + j22 * j22
+        lam = 1e-13 * (g11 + g22) + 1e-300
+        r1, r2 = -(j11 * f1 + j21 * f2), -(j12 * f1 + j22 * f2)
+        det = (g11 + lam) * (g22 + lam) - g12 * g12
+        d1 = ((g22 + lam) * r1 - g12 * r2) / det
+        d2 = ((g11 + lam) * r2 - g12 * r1) / det
+        n1, n2 = t1 + d1, t2 + d2
+        h1, h2 = _sp6_residual(L, e1, e2, n1, n2)
+        new = max(abs(h1), abs(h2))
+        if not new < err:
+            break
+        t1, t2, f1, f2, err = n1, n2, h1, h2, new
+    return t1, t2, err
+
+
+@nb.njit(**_JIT)
+def _sp6_quartic(a1, b1, a3, b3, a2, b2, a4, b4, e1, e2, cands, real):
+    """Candidates of the angle θ of ``(a1, b1; a3, b3)`` after eliminating the other angle φ (its
+    block ``B = (a2, b2; a4, b4)``, invertible): ``(cos φ, sin φ) = B⁻¹ (e − A (cos θ, sin θ))``
+    has unit length, a quadratic form in (cos θ, sin θ), and ``t = tan(θ / 2)`` makes it a quartic.
+    Writes ``(θ, cos φ, sin φ)`` rows into ``cands`` and whether the root was real into ``real``;
+    returns their number."""
     det = a2 * b4 - b2 * a4
-    scale = max(abs(a2), abs(b2), abs(a4), abs(b4), 1e-300)
-    if abs(det) <= 1e-12 * scale * scale:
-        return t1, t2, 0, DEGENERATE
-    # x2 = Binv (e - A x1), Binv = [[b4, -b2], [-a4, a2]] / det; A = [[a1, b1], [a3, b3]]
     i11, i12, i21, i22 = b4 / det, -b2 / det, -a4 / det, a2 / det
-    # x2 = u + U x1 with u = Binv e, U = -Binv A
+    # (cos φ, sin φ) = u + U (cos θ, sin θ)
     u1 = i11 * e1 + i12 * e2
     u2 = i21 * e1 + i22 * e2
     U11 = -(i11 * a1 + i12 * a3)
     U12 = -(i11 * b1 + i12 * b3)
     U21 = -(i21 * a1 + i22 * a3)
     U22 = -(i21 * b1 + i22 * b3)
-    # |u + U x1|² − 1 = m11 c² + 2 m12 c s + m22 s² + 2 n1 c + 2 n2 s + w
+    # |u + U x|² − 1 = m11 c² + 2 m12 c s + m22 s² + 2 n1 c + 2 n2 s + w
     m11 = U11 * U11 + U21 * U21
     m12 = U11 * U12 + U21 * U22
     m22 = U12 * U12 + U22 * U22
@@ -311,12 +346,12 @@ def sp6(h, k, p, d1, d2):
     coeffs[2] = -2.0 * m11 + 4.0 * m22 + 2.0 * w        # t²
     coeffs[3] = 4.0 * m12 + 4.0 * n2                    # t
     coeffs[4] = m11 + 2.0 * n1 + w                      # 1
-    count = 0
-    cands = np.zeros(5)
     nc = 0
     big = max(abs(coeffs[0]), abs(coeffs[1]), abs(coeffs[2]), abs(coeffs[3]), abs(coeffs[4]), 1e-300)
-    if abs(coeffs[0]) <= 1e-14 * big:  # a root at t = ∞: θ1 = π
-        cands[nc] = math.pi
+    thetas = np.zeros(5)
+    if abs(coeffs[0]) <= 1e-10 * big:  # a root at (or near) t = ∞: θ = π
+        thetas[nc] = math.pi
+        real[nc] = True
         nc += 1
     first = 0
     while first < 4 and abs(coeffs[first]) <= 1e-14 * big:
@@ -324,22 +359,81 @@ def sp6(h, k, p, d1, d2):
     if first < 4:
         roots = np.roots(coeffs[first:].astype(np.complex128))
         for r in roots:
-            if abs(r.imag) <= 1e-7 * max(1.0, abs(r.real)):
-                cands[nc] = 2.0 * math.atan(r.real)
+            scale_r = max(1.0, abs(r.real))
+            if abs(r.imag) <= SP6_NEAR_REAL * scale_r:
+                thetas[nc] = 2.0 * math.atan(r.real)
+                real[nc] = abs(r.imag) <= SP6_REAL * scale_r
                 nc += 1
-    flag = EXACT
     for i in range(nc):
-        th = cands[i]
-        c, s = math.cos(th), math.sin(th)
-        x1 = u1 + U11 * c + U12 * s
-        x2 = u2 + U21 * c + U22 * s
+        c, s = math.cos(thetas[i]), math.sin(thetas[i])
+        cands[i, 0] = thetas[i]
+        cands[i, 1] = u1 + U11 * c + U12 * s
+        cands[i, 2] = u2 + U21 * c + U22 * s
+    return nc
+
+
+@nb.njit(**_JIT)
+def sp6(h, k, p, d1, d2):
+    """θ1 (4,), θ2 (4,), count and flag of Elias & Wen's subproblem 6:
+
+        h[0]ᵀ R(k[0], θ1) p[0] + h[1]ᵀ R(k[1], θ2) p[1] = d1
+        h[2]ᵀ R(k[2], θ1) p[2] + h[3]ᵀ R(k[3], θ2) p[3] = d2
+
+    (``h``, ``k``, ``p``: (4, 3)). Each term is linear in ``x1 = (cos θ1, sin θ1)`` or
+    ``x2 = (cos θ2, sin θ2)``: ``A x1 + B x2 = e``. The better-conditioned of A, B is inverted
+    and the other angle's unit circle gives a quartic in ``t = tan(θ / 2)`` (θ = π checked apart).
+    Its roots are seeds only: near a double root (two solutions with almost the same angle) the
+    quartic's roots lose half their digits, and a near-double pair may even come out complex. So
+    every real or nearly real root is polished by Newton on the two equations themselves, the
+    answers closer than ``SP6_SAME`` merged, and a nearly real root kept only if it then solves
+    them. ``EXACT``: every answer satisfies both equations within ``SP6_RESIDUAL`` times the
+    data's size; ``LEAST_SQUARES``: some answer (a real root of the quartic that Newton could not
+    bring onto the equations: a tangency just missed) does not, and is the best point found near
+    it; ``DEGENERATE``: A and B are both singular (count 0). Count 0 with ``EXACT``: no solution."""
+    t1 = np.zeros(4)
+    t2 = np.zeros(4)
+    a1, b1, c1 = _terms(h[0], k[0], p[0])
+    a2, b2, c2 = _terms(h[1], k[1], p[1])
+    a3, b3, c3 = _terms(h[2], k[2], p[2])
+    a4, b4, c4 = _terms(h[3], k[3], p[3])
+    e1, e2 = d1 - c1 - c2, d2 - c3 - c4
+    L = (a1, b1, a2, b2, a3, b3, a4, b4)
+    # conditioning of each 2x2 block: |det| / (squared size)
+    nA = max(a1 * a1 + b1 * b1 + a3 * a3 + b3 * b3, 1e-300)
+    nB = max(a2 * a2 + b2 * b2 + a4 * a4 + b4 * b4, 1e-300)
+    kA = abs(a1 * b3 - b1 * a3) / nA
+    kB = abs(a2 * b4 - b2 * a4) / nB
+    if max(kA, kB) <= 1e-12:
+        return t1, t2, 0, DEGENERATE
+    cands = np.zeros((5, 3))
+    real = np.zeros(5, dtype=np.bool_)
+    swap = kA > kB
+    if swap:  # eliminate θ1: the quartic is in θ2
+        nc = _sp6_quartic(a2, b2, a4, b4, a1, b1, a3, b3, e1, e2, cands, real)
+    else:
+        nc = _sp6_quartic(a1, b1, a3, b3, a2, b2, a4, b4, e1, e2, cands, real)
+    size = max(1.0, abs(d1), abs(d2), abs(e1), abs(e2), math.sqrt(nA + nB))
+    tol = SP6_RESIDUAL * size
+    flag = EXACT
+    count = 0
+    for i in range(nc):
+        th, ph = cands[i, 0], math.atan2(cands[i, 2], cands[i, 1])
+        x, y = (ph, th) if swap else (th, ph)
+        x, y, err = _sp6_polish(L, e1, e2, x, y)
+        if err > tol and not real[i]:
+            continue  # a complex root: no solution near it
+        x = math.atan2(math.sin(x), math.cos(x))
+        y = math.atan2(math.sin(y), math.cos(y))
         dup = False
         for j in range(count):
-            if abs(math.atan2(math.sin(th - t1[j]), math.cos(th - t1[j]))) < 1e-9:
+            if (abs(math.atan2(math.sin(x - t1[j]), math.cos(x - t1[j]))) < SP6_SAME
+                    and abs(math.atan2(math.sin(y - t2[j]), math.cos(y - t2[j]))) < SP6_SAME):
                 dup = True
         if dup or count >= 4:
             continue
-        t1[count] = th
-        t2[count] = math.atan2(x2, x1)
+        if err > tol:
+            flag = LEAST_SQUARES
+        t1[count] = x
+        t2[count] = y
         count += 1
     return t1, t2, count, flag
