@@ -21,10 +21,9 @@ import numpy as np
 from ..algorithms.collision_matrix import DEFAULT_SAMPLES
 from ..errors import KinematicsError
 from ..io.trajectory import open_joint_rows
-from ..usecases import collision as _collision
-from ..usecases import collision_matrix as _matrix
+from ..usecases import collision, collision_matrix
 from . import EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import _fail, model_or_exit_code
+from .common import fail, model_or_exit_code
 from .progress import progress
 
 
@@ -86,7 +85,7 @@ def _matrix_with_bar(model, args):
         done[0] = k
 
     try:
-        return _matrix(model, args.samples, cache_dir=args.cache, progress=tick)
+        return collision_matrix(model, args.samples, cache_dir=args.cache, progress=tick)
     finally:
         bar.close()
 
@@ -98,7 +97,7 @@ def run_collision_matrix(args) -> int:
     try:
         matrix = _matrix_with_bar(model, args)
     except KinematicsError as exc:
-        return _fail("collision-matrix", str(exc), EXIT_USAGE)
+        return fail("collision-matrix", str(exc), EXIT_USAGE)
     text = (json.dumps(matrix.as_dict(), indent=2) + "\n" if args.output.lower().endswith(".json")
             else matrix.to_srdf(model.name))
     if args.output == "-":
@@ -124,7 +123,7 @@ def run_collision(args) -> int:
         checked = matrix.enabled()
         out = sys.stdout if args.output == "-" else open(args.output, "w", newline="", encoding="utf-8")
     except (KinematicsError, OSError) as exc:
-        return _fail("collision", str(exc), EXIT_USAGE)
+        return fail("collision", str(exc), EXIT_USAGE)
     n_rows = n_hit = 0
     try:
         writer = csv.writer(out)
@@ -132,7 +131,7 @@ def run_collision(args) -> int:
         writer.writerow(head + (["min_distance", "closest"] if args.distance else []))
         source = sys.stdin if args.input == "-" else args.input
         for start, Q in open_joint_rows(source, model, "csv" if args.input == "-" else None):
-            a = _collision(model, Q, distance=args.distance, margin=args.margin, samples=args.samples,
+            a = collision(model, Q, distance=args.distance, margin=args.margin, samples=args.samples,
                            cache_dir=args.cache)
             for k in range(len(Q)):
                 row = [start + k, int(a.colliding[k])]
@@ -149,7 +148,7 @@ def run_collision(args) -> int:
             n_rows += len(Q)
             n_hit += int(a.colliding.sum())
     except KinematicsError as exc:
-        return _fail("collision", str(exc), EXIT_USAGE)
+        return fail("collision", str(exc), EXIT_USAGE)
     finally:
         if out is not sys.stdout:
             out.close()
