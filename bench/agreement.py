@@ -27,7 +27,7 @@ def main() -> None:
     for mid in cat.ids():
         try:
             model = cat.get(mid)
-        except URDFError:  # e.g. ur3_unnamed, refused by the catalogue itself
+        except URDFError:  # a model the parser refuses
             continue
         models += 1
         poe = compile_model(model)

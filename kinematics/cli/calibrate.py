@@ -22,7 +22,7 @@ from ..usecases import Query
 from ..io.pose_records import pose_record
 from ..spatial.transforms import pose_components
 from . import EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import _fail, atomic_file, model_or_exit_code, parse_point
+from .common import atomic_file, fail, model_or_exit_code, parse_point
 
 
 def register(sub) -> None:
@@ -73,7 +73,7 @@ def _query(args, command: str) -> Query | int:
     try:
         point = parse_point(args.point)
     except ValueError as exc:
-        return _fail(command, str(exc), EXIT_USAGE)
+        return fail(command, str(exc), EXIT_USAGE)
     return Query(model, link=args.link, point=point)
 
 
@@ -84,11 +84,11 @@ def run_calibrate(args) -> int:
     model = query.model
     for path, ext in ((args.output, ".urdf"), (args.plot, ".png")):
         if path is not None and os.path.splitext(path)[1].lower() != ext:
-            return _fail("calibrate", f"{path}: give a file ending in {ext}", EXIT_USAGE)
+            return fail("calibrate", f"{path}: give a file ending in {ext}", EXIT_USAGE)
     try:
         text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
     except OSError as exc:
-        return _fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
+        return fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
     cal = usecases.calibrate(query, csv=text, parameters=args.parameters,
                              base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
                              random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)

@@ -26,10 +26,9 @@ import numpy as np
 from ..algorithms.collision_matrix import DEFAULT_SAMPLES, UserPairs
 from ..errors import KinematicsError
 from ..io.trajectory import open_joint_rows
-from ..usecases import collision as _collision
-from ..usecases import collision_matrix as _matrix
+from ..usecases import collision, collision_matrix
 from . import EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import _fail, model_or_exit_code
+from .common import fail, model_or_exit_code
 from .progress import progress
 
 
@@ -126,7 +125,7 @@ def _matrix_with_bar(model, args):
         done[0] = k
 
     try:
-        return _matrix(model, args.samples, cache_dir=args.cache, progress=tick, collision_pairs=user_pairs(args))
+        return collision_matrix(model, args.samples, cache_dir=args.cache, progress=tick, collision_pairs=user_pairs(args))
     finally:
         bar.close()
 
@@ -138,7 +137,7 @@ def run_collision_matrix(args) -> int:
     try:
         matrix = _matrix_with_bar(model, args)
     except KinematicsError as exc:
-        return _fail("collision-matrix", str(exc), EXIT_USAGE)
+        return fail("collision-matrix", str(exc), EXIT_USAGE)
     text = (json.dumps(matrix.as_dict(), indent=2) + "\n" if args.output.lower().endswith(".json")
             else matrix.to_srdf(model.name))
     if args.output == "-":
@@ -161,11 +160,11 @@ def _run_dask(args, model) -> int:
     from ..io.parquet import is_parquet
 
     if args.input == "-" or not is_parquet(args.input):
-        return _fail("collision", "--dask reads a Parquet INPUT (a file, a directory or a glob)", EXIT_USAGE)
+        return fail("collision", "--dask reads a Parquet INPUT (a file, a directory or a glob)", EXIT_USAGE)
     if args.output == "-":
-        return _fail("collision", "--dask writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
+        return fail("collision", "--dask writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
     if args.per_pair or args.distance:
-        return _fail("collision", "--per-pair and --distance are not available with --dask", EXIT_USAGE)
+        return fail("collision", "--per-pair and --distance are not available with --dask", EXIT_USAGE)
     try:
         spec = distributed.model_spec(model_id=args.model, urdf=args.urdf, dh=args.dh)
         task = distributed.CollisionTask(samples=args.samples, margin=args.margin, cache_dir=args.cache,
@@ -173,7 +172,7 @@ def _run_dask(args, model) -> int:
         n = distributed.run_parquet(args.input, args.output, spec, kind="collision", address=args.dask,
                                     time_column=args.time_column or "time", collision=task)
     except (KinematicsError, OSError) as exc:
-        return _fail("collision", str(exc), EXIT_USAGE)
+        return fail("collision", str(exc), EXIT_USAGE)
     print(f"collision: {n} configurations checked on Dask -> {args.output}", file=sys.stderr)
     return EXIT_OK
 
@@ -201,15 +200,15 @@ def run_collision(args) -> int:
         checked = matrix.enabled()
         out = sys.stdout if args.output == "-" else open(args.output, "w", newline="", encoding="utf-8")
     except (KinematicsError, OSError) as exc:
-        return _fail("collision", str(exc), EXIT_USAGE)
+        return fail("collision", str(exc), EXIT_USAGE)
     n_rows = n_hit = 0
     try:
         writer = csv.writer(out)
         head = ["row", "colliding"] + ([f"{a}|{b}" for a, b in checked] if args.per_pair else ["pairs"])
         writer.writerow(head + (["min_distance", "closest"] if args.distance else []))
         for start, Q in _rows(args, model):
-            a = _collision(model, Q, distance=args.distance, margin=args.margin, samples=args.samples,
-                           cache_dir=args.cache, collision_pairs=user_pairs(args))
+            a = collision(model, Q, distance=args.distance, margin=args.margin, samples=args.samples,
+                          cache_dir=args.cache, collision_pairs=user_pairs(args))
             for k in range(len(Q)):
                 row = [start + k, int(a.colliding[k])]
                 if args.per_pair:
@@ -225,7 +224,7 @@ def run_collision(args) -> int:
             n_rows += len(Q)
             n_hit += int(a.colliding.sum())
     except KinematicsError as exc:
-        return _fail("collision", str(exc), EXIT_USAGE)
+        return fail("collision", str(exc), EXIT_USAGE)
     finally:
         if out is not sys.stdout:
             out.close()

@@ -25,10 +25,8 @@ from ..errors import JointValueError
 from .collision import add_filter_options, user_pairs
 from ..tolerances import AGREEMENT_TOLERANCE
 from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import (
-    _endpoints, _fail, _io_options, _quietly, _timing, chunk_times, model_or_exit_code, open_input,
-    open_output,
-)
+from .common import (chunk_times, endpoints, fail, io_options, model_or_exit_code, open_input, open_output, quietly,
+                     timing)
 from .progress import bar_steps, progress
 
 #: failed targets named on stderr at most
@@ -87,7 +85,7 @@ def register(sub) -> None:
     p.add_argument("--seed", metavar="Q1,Q2,...",
                    help="starting joint values for every target, dof numbers in joint order (default: the "
                    "middle of the limits; write --seed=-0.5,... when the first is negative)")
-    _io_options(p, what="target poses", verify=False)
+    io_options(p, what="target poses", verify=False)
     p.add_argument("--verify", action="store_true",
                    help="also measure every answer with Pinocchio's FK; exit 1 when a solved answer is off "
                    f"its target by more than the tolerance + {AGREEMENT_TOLERANCE:g}")
@@ -131,9 +129,9 @@ def run_ik(args) -> int:
         return model
     problem = _bad_option(args)
     if problem:
-        return _fail("ik", problem, EXIT_USAGE)
+        return fail("ik", problem, EXIT_USAGE)
     if model.dof == 0:
-        return _fail("ik", f"model {model.name!r} has no moving joint", EXIT_USAGE)
+        return fail("ik", f"model {model.name!r} has no moving joint", EXIT_USAGE)
     link = args.link or model.leaf_links[0]
     api.resolve_links(model, [link])  # unknown link: UnknownLinkError (exit 2) before reading anything
     seed = None
@@ -141,15 +139,15 @@ def run_ik(args) -> int:
         try:
             seed, _ = api.joint_batch(model, [float(v) for v in args.seed.split(",")])
         except ValueError:
-            return _fail("ik", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
+            return fail("ik", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
         except JointValueError as exc:
-            return _fail("ik", f"--seed: {exc}", EXIT_USAGE)
+            return fail("ik", f"--seed: {exc}", EXIT_USAGE)
     locked = parse_locked(args.locked)
     if isinstance(locked, str):
-        return _fail("ik", locked, EXIT_USAGE)
+        return fail("ik", locked, EXIT_USAGE)
     if args.all or locked:
-        return _quietly(_solve_all, args, model, link, seed, locked)
-    return _quietly(_solve, args, model, link, seed)
+        return quietly(_solve_all, args, model, link, seed, locked)
+    return quietly(_solve, args, model, link, seed)
 
 
 def parse_locked(items) -> dict[str, float] | str:
@@ -164,9 +162,9 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     """Every solution of every target: one output row per solution; exit 1 when a target has none."""
     import json
 
-    source, in_fmt, dest, out_fmt = _endpoints(args)
+    source, in_fmt, dest, out_fmt = endpoints(args)
     if out_fmt not in ("csv", "jsonl"):
-        return _fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
+        return fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
     api.ik_family(model, link=link, locked=locked)  # a bad --locked fails before any output
     if args.avoid_collisions:  # a model without collision geometry fails before any output too
         from ..usecases.collision import collision_filter
@@ -231,7 +229,7 @@ def _bad_option(args) -> str | None:
 
 
 def _solve(args, model, link: str, seed) -> int:
-    source, in_fmt, dest, out_fmt = _endpoints(args)
+    source, in_fmt, dest, out_fmt = endpoints(args)
     summary = _Summary(args)
     query = Query(model, link=link, verify=args.verify,  # the request shape, built once for every chunk
                   collision_pairs=user_pairs(args))
@@ -250,7 +248,7 @@ def _solve(args, model, link: str, seed) -> int:
                         bar.update(s.stop - s.start)
         finally:
             bar.close()
-    _timing("ik", writer.rows, "targets", args, time.perf_counter() - t0)
+    timing("ik", writer.rows, "targets", args, time.perf_counter() - t0)
     return summary.report()
 
 

@@ -19,7 +19,7 @@ from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
 from ..usecases.ik_options import SolutionSet
 from .collision import add_filter_options, user_pairs
 from .ik import ik_options, parse_locked
-from .pipeline import _fail, _quietly, model_or_exit_code, open_input
+from .common import fail, model_or_exit_code, open_input, quietly
 
 
 def register(sub) -> None:
@@ -49,14 +49,14 @@ def run_ik_path(args) -> int:
         return model
     locked = parse_locked(args.locked)
     if isinstance(locked, str):
-        return _fail("ik-path", locked, EXIT_USAGE)
+        return fail("ik-path", locked, EXIT_USAGE)
     seed = None
     if args.seed is not None:
         try:
             seed = [float(v) for v in args.seed.split(",")]
         except ValueError:
-            return _fail("ik-path", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
-    return _quietly(_run, args, model, seed, locked)
+            return fail("ik-path", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
+    return quietly(_run, args, model, seed, locked)
 
 
 def _run(args, model, seed, locked) -> int:

@@ -18,8 +18,8 @@ from ..io.result_files import ResultWriter, RowSampler
 from ..io.trajectory import open_state_rows
 from ..spatial.reference import REFERENCES, Reference
 from . import EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import (_endpoints, _fail, _io_options, _quietly, _resolve_links, _timing, _verdict,
-                       model_or_exit_code, parse_point, stream_option_problem, verification_due)
+from .common import (endpoints, fail, io_options, model_or_exit_code, parse_point, quietly, resolve_links,
+                     stream_option_problem, timing, verdict, verification_due)
 from .progress import progress
 
 STATE_HELP = """input (INPUT, by extension; '-' reads CSV from standard input): per row the joint values, then
@@ -57,26 +57,26 @@ def register(sub) -> None:
                    help="reference of the twists (default local_world_aligned)")
     p.add_argument("--point", metavar="X,Y,Z", help="the velocity of this point of each link (link frame, metres) "
                    "instead of the link origin (write --point=-0.1,0,0 when the first is negative)")
-    _io_options(p, what="joint values and velocities")
+    io_options(p, what="joint values and velocities")
 
 
 def run_velocity(args) -> int:
     model = model_or_exit_code(args, "velocity")
     if isinstance(model, int):
         return model
-    links = _resolve_links(model, args.links or ["all"])
+    links = resolve_links(model, args.links or ["all"])
     try:
         point = parse_point(args.point)
     except ValueError as exc:
-        return _fail("velocity", str(exc), EXIT_USAGE)
-    return _quietly(_run, args, model, links, point)
+        return fail("velocity", str(exc), EXIT_USAGE)
+    return quietly(_run, args, model, links, point)
 
 
 def _run(args, model, links, point) -> int:
     problem = stream_option_problem(args)
     if problem:
-        return _fail("velocity", problem, EXIT_USAGE)
-    source, in_fmt, dest, out_fmt = _endpoints(args)
+        return fail("velocity", problem, EXIT_USAGE)
+    source, in_fmt, dest, out_fmt = endpoints(args)
     sampler = RowSampler(args.verify or 0, args.seed)
     reference = Reference(args.reference)
     outside = 0
@@ -97,7 +97,7 @@ def _run(args, model, links, point) -> int:
         finally:
             bar.close()
     n = writer.rows
-    _timing("velocity", n, "configurations", args, time.perf_counter() - t0)
+    timing("velocity", n, "configurations", args, time.perf_counter() - t0)
     if not verification_due("velocity", args, sampler, outside, n):
         return EXIT_OK
     from ..verify import pinocchio
@@ -107,4 +107,4 @@ def _run(args, model, links, point) -> int:
                                      twists={reference: sampler.results}, tool=query.T_tool)
     print(f"velocity: verify: {len(sampler.rows)} sampled rows x {len(links)} links, reference {reference.value} vs "
           f"{pinocchio.REFERENCE_NAME}: max twist error {err:.3g}", file=sys.stderr)
-    return _verdict("velocity", err)
+    return verdict("velocity", err)

@@ -23,7 +23,7 @@ from ..errors import MissingExtraError
 from ..usecases import Query
 from . import EXIT_OK, EXIT_USAGE, add_command
 from .collision import add_filter_options, filter_options
-from .pipeline import _fail, atomic_file, model_or_exit_code, parse_point
+from .common import atomic_file, fail, model_or_exit_code, parse_point
 from .progress import progress
 
 OUTPUT_HELP = """output (-o, by extension):
@@ -72,16 +72,16 @@ def run_workspace(args) -> int:
     if isinstance(model, int):
         return model
     if args.samples < 1:
-        return _fail("workspace", "--samples must be at least 1", EXIT_USAGE)
+        return fail("workspace", "--samples must be at least 1", EXIT_USAGE)
     if args.voxel is not None and not (math.isfinite(args.voxel) and args.voxel > 0):
-        return _fail("workspace", "--voxel must be a positive number of metres", EXIT_USAGE)
+        return fail("workspace", "--voxel must be a positive number of metres", EXIT_USAGE)
     for path, exts in ((args.output, (".npz", ".csv")), (args.plot, (".png",))):
         if path is not None and os.path.splitext(path)[1].lower() not in exts:
-            return _fail("workspace", f"{path}: give a file ending in {' or '.join(exts)}", EXIT_USAGE)
+            return fail("workspace", f"{path}: give a file ending in {' or '.join(exts)}", EXIT_USAGE)
     try:
         point = parse_point(args.point)
     except ValueError as exc:
-        return _fail("workspace", str(exc), EXIT_USAGE)
+        return fail("workspace", str(exc), EXIT_USAGE)
     link = args.link or (model.leaf_links[0] if model.leaf_links else model.root)
     query = Query(model, link=link, point=point)
     query.frame_link()  # unknown link: exit 2 before sampling

@@ -16,6 +16,8 @@ import numba as nb
 import numpy as np
 
 from ..errors import KinematicsError
+# the batch kernels' private row kernels, JIT options and sine/cosine coefficients: a single entry repeats
+# their arithmetic operation for operation so its answer equals the batch row bit for bit
 from . import compiled as _c
 from .compiled import _JIT, REVOLUTE, SINCOS_MAX_ARG, _jacobian_row, _poses_row
 

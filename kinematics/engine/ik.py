@@ -32,6 +32,7 @@ import math
 import numba as nb
 import numpy as np
 
+# the FK kernel's chunk walk and scratch buffers, private to the engine: IK evaluates the same frames
 from .compiled import J_KIND, J_MULT, J_QINDEX, REVOLUTE, _chunk_frames, _scratch, joint_column
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")

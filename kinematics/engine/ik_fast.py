@@ -1,8 +1,39 @@
-"""The closed forms of :mod:`kinematics.engine.ik_closed` on 3-tuples: no array is allocated per
-target (the array forms allocate a few hundred small arrays per target, which costs more than the
-arithmetic). The same formulas, the same candidates in the same order; the family tests check both
-through :func:`kinematics.algorithms.ik_all.all_solutions`, and ``tests/kinematics/engine`` checks
-that the two give the same candidates."""
+"""Compiled closed-form inverse kinematics of 6-joint chains, batched over targets: the closed forms
+the every-solution IK runs (:func:`kinematics.algorithms.ik_all.all_solutions`).
+
+A chain is given by its zero-configuration axes ``h`` (6, 3) (unit; a prismatic joint's
+direction), a point ``r`` (6, 3) on each revolute axis, and the joint kinds; a target by
+``G = T M⁻¹`` (the product ``E1(q1) ... E6(q6)`` of the screw exponentials, M the home pose of the
+link), so every formula below is on the product's own screws, as a sequence of the subproblems of
+:mod:`kinematics.engine.subproblems` on 3-tuples (no array is allocated per target: a few hundred
+small arrays per target would cost more than the arithmetic). Each kernel writes up to
+``FAMILY_CANDIDATES`` candidate configurations per target (``width`` > 0 for a chain near the
+family: a least-squares branch point becomes two seeds, see :func:`spread`) into ``Q`` (N, C, 6),
+``count`` (N,) and their subproblem flags ``flag`` (N, C) (the largest of the subproblems used).
+Candidates are *candidates*: the caller polishes them on the real model and keeps only those whose
+FK meets the tolerance.
+
+Families (the caller, :mod:`kinematics.algorithms.ik_families`, detects them and brings the chain
+into this form, reversing it for a spherical shoulder):
+
+``spherical_wrist``: axes 4, 5, 6 meet at the wrist centre ``c``, so ``G c = E1 E2 E3 c`` (the
+position part) and ``R(h4, q4) R(h5, q5) R(h6, q6) = (R1 R2 R3)ᵀ R_G`` (the orientation part:
+subproblem 2 for q4, q5 on ``h6``, subproblem 1 for q6). The position part, by ``position``:
+
+- ``POS_PARALLEL_23`` (axes 2 ∥ 3; Puma, KUKA KR, ABB): rotations about h2 keep the height along
+  h2, so subproblem 4 gives q1, subproblem 3 (the distance to axis 2's point) q3, subproblem 1 q2;
+- ``POS_INTERSECT_12`` (axes 1, 2 meet at ``o``; 7-dof arms with a locked joint): the distance
+  ``|x − o|`` is kept by joints 1, 2, so subproblem 3 gives q3 and subproblem 2 q1, q2;
+- ``POS_INTERSECT_12_PRISMATIC`` (the same with a prismatic joint 3; Stanford arm): a quadratic in q3;
+- ``POS_PARALLEL_12`` (axes 1 ∥ 2): subproblem 4 for q3 (the height along h1), subproblem 3 q2,
+  subproblem 1 q1;
+- ``POS_SEARCH`` (a general 3R positioning arm): a bracketing search over q1
+  (:func:`spherical_wrist_search`).
+
+``three_parallel`` (axes 2 ∥ 3 ∥ 4, axes 5, 6 meet at ``c``; UR): the height of ``E1⁻¹ G c``
+along h2 gives q1 (subproblem 4), ``h2ᵀ R1ᵀ R_G h6 = h2ᵀ R(h5, q5) h6`` q5 (subproblem 4), then q6
+(subproblem 1), the sum of the parallel angles (subproblem 1) and the planar 2R (subproblems 3, 1).
+"""
 
 from __future__ import annotations
 
@@ -12,61 +43,15 @@ import numba as nb
 import numpy as np
 
 from .ik import rotation_log
-from .ik_polish import damped_step
-from .subproblems import DEGENERATE, EXACT, LEAST_SQUARES, TANGENT, ZERO, sp2_image
+from .ik_polish import close_rows, damped_step
+from .subproblems import (EXACT, LEAST_SQUARES, add, cross, dot, norm, rotate, rotate_cs, scale, sp1, sp1_cs, sp2_cs,
+                          sp3, sp4, sub, vec)
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 
-
-@nb.njit(inline="always", **_JIT)
-def v(a):
-    return (a[0], a[1], a[2])
-
-
-@nb.njit(inline="always", **_JIT)
-def sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-@nb.njit(inline="always", **_JIT)
-def add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-@nb.njit(inline="always", **_JIT)
-def scale(s, a):
-    return (s * a[0], s * a[1], s * a[2])
-
-
-@nb.njit(inline="always", **_JIT)
-def dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@nb.njit(inline="always", **_JIT)
-def cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@nb.njit(inline="always", **_JIT)
-def norm(a):
-    return math.sqrt(dot(a, a))
-
-
-@nb.njit(inline="always", **_JIT)
-def rot(k, theta, p):
-    """``R(k, θ) p``."""
-    return rot_cs(k, math.cos(theta), math.sin(theta), p)
-
-
-@nb.njit(inline="always", **_JIT)
-def rot_cs(k, c, s, p):
-    """``R(k, θ) p`` from ``c = cos θ``, ``s = sin θ`` (a rotation used more than once: its sine and
-    cosine once)."""
-    kp = dot(k, p)
-    kx = cross(k, p)
-    w = (1.0 - c) * kp
-    return (c * p[0] + s * kx[0] + w * k[0], c * p[1] + s * kx[1] + w * k[1], c * p[2] + s * kx[2] + w * k[2])
+#: the largest candidate array a family kernel is given (the bracketing search's bound)
+MAX_CANDIDATES = 16
+POS_PARALLEL_23, POS_INTERSECT_12, POS_INTERSECT_12_PRISMATIC, POS_PARALLEL_12 = 0, 1, 2, 3
 
 
 @nb.njit(inline="always", **_JIT)
@@ -83,94 +68,6 @@ def matT(G, p):
             G[0, 2] * p[0] + G[1, 2] * p[1] + G[2, 2] * p[2])
 
 
-@nb.njit(inline="always", **_JIT)
-def trig(A, B, C):
-    """(θa, θb, count, flag) of ``A cos θ + B sin θ = C`` (as :func:`~kinematics.engine.subproblems.trig_solve`)."""
-    r = math.hypot(A, B)
-    sc = max(r, abs(C), 1.0)
-    if r <= ZERO * sc:
-        return 0.0, 0.0, 1, (DEGENERATE if abs(C) <= ZERO * sc else LEAST_SQUARES)
-    phi = math.atan2(B, A)
-    x = C / r
-    if x >= 1.0 + TANGENT:
-        return phi, 0.0, 1, LEAST_SQUARES
-    if x <= -1.0 - TANGENT:
-        return phi + math.pi, 0.0, 1, LEAST_SQUARES
-    if abs(abs(x) - 1.0) <= TANGENT:
-        return (phi if x > 0 else phi + math.pi), 0.0, 1, EXACT
-    a = math.acos(x)
-    return phi + a, phi - a, 2, EXACT
-
-
-@nb.njit(inline="always", **_JIT)
-def sp1_cs(p1, p2, k):
-    """(θ, cos θ, sin θ, flag) of subproblem 1, ``R(k, θ) p1 = p2`` (the cosine and sine from the
-    same two numbers as θ: a rotation by θ needs no trigonometric call)."""
-    kp1, kp2 = dot(k, p1), dot(k, p2)
-    a = sub(p1, scale(kp1, k))
-    b = sub(p2, scale(kp2, k))
-    na, nb_ = norm(a), norm(b)
-    sc = max(na, nb_, 1.0)
-    if na <= ZERO * sc or nb_ <= ZERO * sc:
-        return 0.0, 1.0, 0.0, DEGENERATE
-    y, x = dot(k, cross(a, b)), dot(a, b)
-    theta = math.atan2(y, x)
-    rr = math.sqrt(x * x + y * y)
-    c, s = x / rr, y / rr
-    if abs(na - nb_) > 1e-9 * sc or abs(kp1 - kp2) > 1e-9 * sc:
-        return theta, c, s, LEAST_SQUARES
-    return theta, c, s, EXACT
-
-
-@nb.njit(inline="always", **_JIT)
-def sp1(p1, p2, k):
-    """(θ, flag) of subproblem 1 (:func:`sp1_cs`)."""
-    theta, _, _, flag = sp1_cs(p1, p2, k)
-    return theta, flag
-
-
-@nb.njit(inline="always", **_JIT)
-def sp3(p1, p2, k, d):
-    kp1, kp2 = dot(k, p1), dot(k, p2)
-    a = sub(p1, scale(kp1, k))
-    b = sub(p2, scale(kp2, k))
-    return trig(2.0 * dot(a, b), 2.0 * dot(cross(k, a), b), dot(a, a) + dot(b, b) + (kp1 - kp2) ** 2 - d * d)
-
-
-@nb.njit(inline="always", **_JIT)
-def sp4(h, p, k, d):
-    kp = dot(k, p)
-    hk = dot(h, k)
-    return trig(dot(h, p) - hk * kp, dot(h, cross(k, p)), d - hk * kp)
-
-
-@nb.njit(inline="always", **_JIT)
-def sp2_cs(p1, p2, k1, k2):
-    """(θ1a, θ1b, θ2a, θ2b, count, flag, (cos, sin) of each of the four) of ``R(k1, θ1) p1 = R(k2, θ2) p2``."""
-    base, n, g, count, flag = sp2_image(p1, p2, k1, k2)
-    if flag == DEGENERATE:
-        return 0.0, 0.0, 0.0, 0.0, 1, DEGENERATE, (1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0)
-    x = add(base, scale(g, n))
-    a0, ca0, sa0, f1 = sp1_cs(p1, x, k1)
-    b0, cb0, sb0, f2 = sp1_cs(p2, x, k2)
-    if f1 == DEGENERATE or f2 == DEGENERATE:
-        flag = DEGENERATE
-    a1 = b1 = 0.0
-    ca1, sa1, cb1, sb1 = 1.0, 0.0, 1.0, 0.0
-    if count == 2:
-        x = sub(base, scale(g, n))
-        a1, ca1, sa1, f1 = sp1_cs(p1, x, k1)
-        b1, cb1, sb1, f2 = sp1_cs(p2, x, k2)
-        if f1 == DEGENERATE or f2 == DEGENERATE:
-            flag = DEGENERATE
-    return a0, a1, b0, b1, count, flag, (ca0, sa0, ca1, sa1, cb0, sb0, cb1, sb1)
-
-
-@nb.njit(inline="always", **_JIT)
-def sp2(p1, p2, k1, k2):
-    """(θ1a, θ1b, θ2a, θ2b, count, flag) of ``R(k1, θ1) p1 = R(k2, θ2) p2`` (:func:`sp2_cs`)."""
-    a0, a1, b0, b1, count, flag, _ = sp2_cs(p1, p2, k1, k2)
-    return a0, a1, b0, b1, count, flag
 
 
 @nb.njit(inline="always", **_JIT)
@@ -184,7 +81,7 @@ def spread(ta, tb, n, flag, width):
 @nb.njit(inline="always", **_JIT)
 def sp3_seeds(p1, p2, k, d, width):
     """:func:`sp3` with a least-squares point as two seeds (:func:`spread`): (θa, θb, count, flag)."""
-    ta, tb, n, flag = sp3(p1, p2, k, d)
+    (ta, tb), n, flag = sp3(p1, p2, k, d)
     ta, tb, n = spread(ta, tb, n, flag, width)
     return ta, tb, n, flag
 
@@ -192,7 +89,7 @@ def sp3_seeds(p1, p2, k, d, width):
 @nb.njit(inline="always", **_JIT)
 def sp4_seeds(h, p, k, d, width):
     """:func:`sp4` with a least-squares point as two seeds (:func:`spread`): (θa, θb, count, flag)."""
-    ta, tb, n, flag = sp4(h, p, k, d)
+    (ta, tb), n, flag = sp4(h, p, k, d)
     ta, tb, n = spread(ta, tb, n, flag, width)
     return ta, tb, n, flag
 
@@ -200,13 +97,13 @@ def sp4_seeds(h, p, k, d, width):
 @nb.njit(inline="always", **_JIT)
 def about(k, o, theta, p):
     """The point ``p`` turned by θ about the line through ``o`` along the unit axis ``k``."""
-    return add(o, rot(k, theta, sub(p, o)))
+    return add(o, rotate(k, theta, sub(p, o)))
 
 
 @nb.njit(inline="always", **_JIT)
 def about_cs(k, o, c, s, p):
     """:func:`about` from ``c = cos θ``, ``s = sin θ``."""
-    return add(o, rot_cs(k, c, s, sub(p, o)))
+    return add(o, rotate_cs(k, c, s, sub(p, o)))
 
 
 @nb.njit(inline="always", **_JIT)
@@ -235,10 +132,11 @@ def _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, f):
 
 @nb.njit(**_JIT)
 def three_parallel(G, h_, r_, c_, width, Q, count, flag):
-    """As :func:`kinematics.engine.ik_closed.three_parallel`."""
-    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
-    r0, r1, r2, r3 = v(r_[0]), v(r_[1]), v(r_[2]), v(r_[3])
-    c = v(c_)
+    """Candidates of the three-parallel family (axes 2 ∥ 3 ∥ 4, axes 5, 6 meeting at ``c``) for targets
+    ``G`` (N, 4, 4) into ``Q``, ``count``, ``flag``."""
+    h0, h1, h2, h3, h4, h5 = vec(h_[0]), vec(h_[1]), vec(h_[2]), vec(h_[3]), vec(h_[4]), vec(h_[5])
+    r0, r1, r2, r3 = vec(r_[0]), vec(r_[1]), vec(r_[2]), vec(r_[3])
+    c = vec(c_)
     s3 = 1.0 if dot(h1, h2) > 0 else -1.0
     s4 = 1.0 if dot(h1, h3) > 0 else -1.0
     u = perpendicular(h1)
@@ -250,18 +148,18 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
         for i in range(n1):
             q1 = -(ta if i == 0 else tb)
             c1, s1 = math.cos(q1), -math.sin(q1)  # the rotation by −q1 (and by q1: c1, −s1)
-            a = rot_cs(h0, c1, s1, mat(g, h5))
-            pp = add(r0, rot_cs(h0, c1, s1, sub(p, r0)))
+            a = rotate_cs(h0, c1, s1, mat(g, h5))
+            pp = add(r0, rotate_cs(h0, c1, s1, sub(p, r0)))
             t5a, t5b, n5, f5 = sp4_seeds(h1, h5, h4, dot(h1, a), width)
             for j in range(n5):
                 q5 = t5a if j == 0 else t5b
                 c5, s5 = math.cos(q5), -math.sin(q5)  # by −q5
-                m6, c6, s6, f6 = sp1_cs(rot_cs(h4, c5, s5, h1), matT(g, rot_cs(h0, c1, -s1, h1)), h5)
+                m6, c6, s6, f6 = sp1_cs(rotate_cs(h4, c5, s5, h1), matT(g, rotate_cs(h0, c1, -s1, h1)), h5)
                 q6 = -m6  # (the rotation by −q6 = m6: c6, s6)
                 # R234 x = R1ᵀ Rd R6ᵀ R5ᵀ x
-                Ru = rot_cs(h0, c1, s1, mat(g, rot_cs(h5, c6, s6, rot_cs(h4, c5, s5, u))))
+                Ru = rotate_cs(h0, c1, s1, mat(g, rotate_cs(h5, c6, s6, rotate_cs(h4, c5, s5, u))))
                 theta, f234 = sp1(u, Ru, h1)
-                Rc = rot_cs(h0, c1, s1, mat(g, rot_cs(h5, c6, s6, rot_cs(h4, c5, s5, sub(c, r3)))))
+                Rc = rotate_cs(h0, c1, s1, mat(g, rotate_cs(h5, c6, s6, rotate_cs(h4, c5, s5, sub(c, r3)))))
                 p4 = sub(pp, Rc)
                 t3a, t3b, n3, f3 = sp3_seeds(sub(r3, r2), sub(r1, r2), h2, norm(sub(p4, r1)), width)
                 for k in range(n3):
@@ -281,20 +179,20 @@ def _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, fpos, h0, h1, h
     c1, s1, c2, s2, c3, s3 = back3
 
     def back(x):
-        y = rot_cs(h0, c1, s1, x)
-        y = rot_cs(h1, c2, s2, y)
+        y = rotate_cs(h0, c1, s1, x)
+        y = rotate_cs(h1, c2, s2, y)
         if not prismatic3:
-            y = rot_cs(h2, c3, s3, y)
+            y = rotate_cs(h2, c3, s3, y)
         return y
     w6 = back(mat(g, h5))
-    a0, a1, b0, b1, m, f45, cs = sp2_cs(w6, h5, h3, h4)
+    (a0, a1), (b0, b1), m, f45, cs = sp2_cs(w6, h5, h3, h4)
     for b in range(m):
         q4 = -(a0 if b == 0 else a1)
         q5 = b0 if b == 0 else b1
         # the rotations by −q4 (= θ1 of subproblem 2) and −q5, from its cosines and sines
         c4, s4 = (cs[0], cs[1]) if b == 0 else (cs[2], cs[3])
         c5, s5 = (cs[4], -cs[5]) if b == 0 else (cs[6], -cs[7])
-        vv = rot_cs(h4, c5, s5, rot_cs(h3, c4, s4, back(mat(g, u))))
+        vv = rotate_cs(h4, c5, s5, rotate_cs(h3, c4, s4, back(mat(g, u))))
         q6, f6 = sp1(u, vv, h5)
         _store(Q, flag, t, n, q1, q2, q3, q4, q5, q6, max(fpos, f45, f6))
         n += 1
@@ -303,10 +201,11 @@ def _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, fpos, h0, h1, h
 
 @nb.njit(**_JIT)
 def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
-    """As :func:`kinematics.engine.ik_closed.spherical_wrist`."""
-    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
-    r0, r1, r2 = v(r_[0]), v(r_[1]), v(r_[2])
-    c = v(c_)
+    """Candidates of the spherical-wrist family (the position part by ``position``, ``prismatic3`` for a
+    prismatic joint 3) for targets ``G`` (N, 4, 4) into ``Q``, ``count``, ``flag``."""
+    h0, h1, h2, h3, h4, h5 = vec(h_[0]), vec(h_[1]), vec(h_[2]), vec(h_[3]), vec(h_[4]), vec(h_[5])
+    r0, r1, r2 = vec(r_[0]), vec(r_[1]), vec(r_[2])
+    c = vec(c_)
     u = perpendicular(h5)
     for t in range(G.shape[0]):
         g = G[t]
@@ -350,7 +249,7 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     q3 = -bq + s if j == 0 else -bq - s
                     c3, s3 = 1.0, 0.0  # (a prismatic joint 3: no rotation)
                     x = add(c, scale(q3, h2))
-                a0, a1, b0, b1, m, f2, cs = sp2_cs(sub(p, o), sub(x, o), h0, h1)
+                (a0, a1), (b0, b1), m, f2, cs = sp2_cs(sub(p, o), sub(x, o), h0, h1)
                 for i in range(m):
                     q1 = -(a0 if i == 0 else a1)
                     q2 = b0 if i == 0 else b1
@@ -386,7 +285,7 @@ def _branch(q1, p, c, r0, r1, r2, h0, h1, h2, b):
     """Residual of branch b (0, 1) of the position part at q1: the height along axis 2 of the wrist
     centre turned by q3 (subproblem 3: its distance to axis 2's point right) minus the target's."""
     pp = about(h0, r0, -q1, p)
-    ta, tb, n, f = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
+    (ta, tb), n, f = sp3(sub(c, r2), sub(r1, r2), h2, norm(sub(pp, r1)))
     q3 = ta if (b == 0 or n == 1) else tb
     x = about(h2, r2, q3, c)
     return dot(h1, sub(x, r1)) - dot(h1, sub(pp, r1)), q3, pp
@@ -404,9 +303,9 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
     q2 and the wrist part q4, q5, q6. A root of even multiplicity (a tangency) or two roots within one
     sample step would be missed; a root in the least-squares continuation is not a solution, and the
     caller's FK check drops it."""
-    h0, h1, h2, h3, h4, h5 = v(h_[0]), v(h_[1]), v(h_[2]), v(h_[3]), v(h_[4]), v(h_[5])
-    r0, r1, r2 = v(r_[0]), v(r_[1]), v(r_[2])
-    c = v(c_)
+    h0, h1, h2, h3, h4, h5 = vec(h_[0]), vec(h_[1]), vec(h_[2]), vec(h_[3]), vec(h_[4]), vec(h_[5])
+    r0, r1, r2 = vec(r_[0]), vec(r_[1]), vec(r_[2])
+    c = vec(c_)
     u = perpendicular(h5)
     step = 2.0 * math.pi / samples
     for t in range(G.shape[0]):
@@ -464,3 +363,23 @@ def pose_error_rows(F, T, e):
                 R[a, b] = T[i, a, 0] * F[i, b, 0] + T[i, a, 1] * F[i, b, 1] + T[i, a, 2] * F[i, b, 2]
         rotation_log(R, out)
         e[i, 3], e[i, 4], e[i, 5] = out[0], out[1], out[2]
+
+
+@nb.njit(**_JIT)
+def distinct_rows(Q, ok, starts, columns, revolute, tolerance, keep):
+    """``keep[i]``: row i of ``Q`` (R, dof) is ``ok`` and no earlier kept row of its group
+    (rows ``starts[g]:starts[g + 1]``) is within ``tolerance`` of it in every column of ``columns``
+    (revolute columns compared modulo 2π)."""
+    for g in range(starts.shape[0] - 1):
+        for i in range(starts[g], starts[g + 1]):
+            keep[i] = False
+            if not ok[i]:
+                continue
+            dup = False
+            for j in range(starts[g], i):
+                if not keep[j]:
+                    continue
+                if close_rows(Q[i], Q[j], columns, revolute, tolerance):
+                    dup = True
+                    break
+            keep[i] = not dup

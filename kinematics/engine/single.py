@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..spatial.reference import parse_reference
+# the entries' binding helpers, private to the engine (entries.py and single.py are one feature split in two)
 from .entries import _bind, _tables, fk_one, jacobian_one
 from .plans import _REFERENCE_CODES, with_tool
 

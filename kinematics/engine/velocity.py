@@ -31,6 +31,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+# the FK kernel's chunk walk and scratch buffers, private to the engine: velocities run the same frames
 from .compiled import (J_KIND, J_MULT, J_PARENT, J_QINDEX, REF_LOCAL, REF_LOCAL_WORLD_ALIGNED, REF_WORLD, REVOLUTE,
                        ROW_PAD, _chunk_frames, _scratch)
 

@@ -23,6 +23,7 @@ import math
 import numba as nb
 import numpy as np
 
+# the FK kernel's chunk walk and scratch buffers, private to the engine: sampling runs the same frames
 from .compiled import J_KIND, J_MULT, J_QINDEX, REVOLUTE, _chunk_frames, _scratch
 
 _JIT = dict(cache=True, nogil=True, boundscheck=False, error_model="numpy")

@@ -30,11 +30,16 @@ ID_OVERRIDES = {
     "anymal_b_simple_description/robots/anymal-kinova.urdf": "anymal_b_kinova",
     "anymal_c_simple_description/urdf/anymal.urdf": "anymal_c",
     "asr_twodof_description/urdf/TwoDofs.urdf": "asr_twodof",
-    "ur_description/urdf/ur3.urdf": "ur3_unnamed",
     "alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf": "alexander_v1_lower_body",
     "hector_description/robots/quadrotor_base.urdf": "hector_quadrotor",
     "g1_description/urdf/g1_29dof_rev_1_0.urdf": "g1_29dof",
     "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf": "g1_29dof_with_hand",
+}
+
+#: files of example-robot-data the catalogue leaves out (it lists only what loads), with the reason
+UNLOADABLE = {
+    "ur_description/urdf/ur3.urdf": "its <robot> element has no name (Pinocchio refuses it too); "
+                                    "the same arm loads as ur3 (ur3_robot.urdf)",
 }
 
 _PACKAGE = Path(__file__).resolve().parents[1]
@@ -104,6 +109,8 @@ class Catalogue:
         self.entries: dict[str, CatalogueEntry] = {}
         #: what a user should know about this catalogue (a missing example-robot-data)
         self.notes: list[str] = []
+        #: the files left out of the listing, with the reason (:data:`UNLOADABLE`)
+        self.skipped: dict[str, str] = {}
         if robots_dir is None:
             robots_dir = example_robot_data_dir()
             if robots_dir is None:
@@ -111,6 +118,9 @@ class Catalogue:
         if robots_dir is not None:
             for path in sorted(Path(robots_dir).rglob("*.urdf")):
                 rel = path.relative_to(robots_dir).as_posix()
+                if rel in UNLOADABLE:
+                    self.skipped[rel] = UNLOADABLE[rel]
+                    continue
                 eid = _make_id(rel)
                 if eid in self.entries:
                     raise RuntimeError(f"catalogue id collision: {eid!r} ({rel} and {self.entries[eid].path})")

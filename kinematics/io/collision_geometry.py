@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import URDFError
 from ..model.robot import RobotModel, frozen_array
 from ..spatial.rotations import rpy_to_matrix
-from .urdf import _read_xml
+from .urdf import read_xml
 
 #: mesh formats read (by suffix, case-insensitive)
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
@@ -316,7 +316,7 @@ def resolve_mesh(source: MeshSource, filename: str) -> tuple[Path | None, bytes 
     return path, data, suffix[1:]
 
 
-def _numbers(text: str | None, n: int, default: tuple[float, ...], what: str) -> tuple[float, ...]:
+def attribute_numbers(text: str | None, n: int, default: tuple[float, ...], what: str) -> tuple[float, ...]:
     if text is None:
         return default
     parts = text.split()
@@ -332,14 +332,14 @@ def _origin(el) -> np.ndarray:
     o = el.find("origin")
     T = np.eye(4)
     if o is not None:
-        T[:3, :3] = rpy_to_matrix(_numbers(o.get("rpy"), 3, (0.0, 0.0, 0.0), "<origin rpy>"))
-        T[:3, 3] = _numbers(o.get("xyz"), 3, (0.0, 0.0, 0.0), "<origin xyz>")
+        T[:3, :3] = rpy_to_matrix(attribute_numbers(o.get("rpy"), 3, (0.0, 0.0, 0.0), "<origin rpy>"))
+        T[:3, 3] = attribute_numbers(o.get("xyz"), 3, (0.0, 0.0, 0.0), "<origin xyz>")
     return frozen_array(T)
 
 
 def _primitive(kind: str, g) -> tuple[float, ...]:
     if kind == "box":
-        size = _numbers(g.get("size"), 3, None, "<box size>")  # type: ignore[arg-type]
+        size = attribute_numbers(g.get("size"), 3, None, "<box size>")  # type: ignore[arg-type]
         if size is None:
             raise ValueError("<box> has no size")
     elif kind == "sphere":
@@ -391,7 +391,7 @@ def mesh_reference(shape_el) -> tuple[str, tuple[float, float, float]]:
     """The ``filename`` (stripped) and ``scale`` (default 1, 1, 1) of a ``<mesh>`` element;
     ValueError for a scale that is not three numbers."""
     filename = (shape_el.get("filename") or "").strip()
-    return filename, _numbers(shape_el.get("scale"), 3, (1.0, 1.0, 1.0), "<mesh scale>")  # type: ignore[return-value]
+    return filename, attribute_numbers(shape_el.get("scale"), 3, (1.0, 1.0, 1.0), "<mesh scale>")  # type: ignore[return-value]
 
 
 def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> CollisionGeometry:
@@ -400,7 +400,7 @@ def collision_geometry(model: RobotModel, meshes: MeshSource | None = None) -> C
     raises for a bad element: it is skipped and named in ``warnings``."""
     source = meshes if meshes is not None else model_meshes(model)
     try:
-        root = _read_xml(model.urdf.encode("utf-8"))
+        root = read_xml(model.urdf.encode("utf-8"))
     except URDFError:
         return CollisionGeometry({}, ("the model's URDF text could not be re-read for its collision geometry",))
     per_link: dict[str, list[Shape]] = {}

@@ -31,7 +31,7 @@ from . import archive as archives
 from . import xacro as xacros
 from .collision_geometry import ArchiveMeshes, vouch_meshes, with_geometry_warnings
 from .mjcf import parse_mjcf
-from .urdf import DEFAULT_MAX_LINKS, _read_xml, parse_urdf, xacro_use
+from .urdf import DEFAULT_MAX_LINKS, parse_urdf, read_xml, xacro_use
 
 #: every format :func:`detect` names
 FORMATS = ("urdf", "xacro", "mjcf", "zip", "gzip", "tar")
@@ -47,7 +47,7 @@ def detect(data: bytes) -> str:
     if kind is not None:
         return kind
     try:
-        root = _read_xml(data)
+        root = read_xml(data)
     except URDFError:
         return "urdf"
     if root.tag == "mujoco":
@@ -169,7 +169,7 @@ def _candidates(root: Path, files: list[str]) -> list[str]:
         if not p.name.lower().endswith(ENTRY_SUFFIXES) or p.name == "package.xml":
             continue
         try:
-            el = _read_xml((root / name).read_bytes())
+            el = read_xml((root / name).read_bytes())
         except URDFError:
             continue
         if (el.tag == "robot" and el.get("name") and _has_content(el)) or el.tag == "mujoco":

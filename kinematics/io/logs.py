@@ -288,7 +288,3 @@ class TFWriter(AtomicOutput):
         self._fh.close()
         self._fh = None
         drop_file(self._tmp)
-
-
-def is_mcap_output(path) -> bool:
-    return Path(str(path)).suffix.lower() == ".mcap"

@@ -361,7 +361,3 @@ class ParquetResultWriter(AtomicOutput):
         if self._tmp is not None:
             drop_file(self._tmp)
             self._tmp = None
-
-
-def is_parquet_output(path) -> bool:
-    return Path(str(path)).suffix.lower() in PARQUET_EXTENSIONS

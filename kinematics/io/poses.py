@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import BasePoseError, PoseError
 from ..model.joint_values import floating_joint_values  # noqa: F401 - read with q now; kept importable here
-from ..spatial.pose_data import is_pose_list as _is_pose_list, read_pose as _one_pose, read_vector as _vector
+from ..spatial.pose_data import is_pose_list, read_pose, read_vector
 from ..tolerances import MAX_ABS_COORDINATE, RIGID_TOLERANCE
 
 
@@ -23,18 +23,18 @@ def base_poses(value, n: int) -> np.ndarray | None:
     """``T_world_root`` for each of ``n`` configurations: (n, 4, 4), or None when no base is given."""
     if value is None:
         return None
-    if _is_pose_list(value):
+    if is_pose_list(value):
         if len(value) != n:
             raise BasePoseError(f"base: {len(value)} poses given for {n} configurations (give one, or one each)")
-        return np.stack([_one_pose(v, f"base[{i}]") for i, v in enumerate(value)])
-    return np.broadcast_to(_one_pose(value, "base"), (n, 4, 4))
+        return np.stack([read_pose(v, f"base[{i}]") for i, v in enumerate(value)])
+    return np.broadcast_to(read_pose(value, "base"), (n, 4, 4))
 
 
 def pose_count(value) -> int:
     """How many poses ``value`` holds (before validation): a list's length, an array's first axis, else 1."""
     if isinstance(value, np.ndarray):
         return int(value.shape[0]) if value.ndim == 3 else 1
-    return len(value) if _is_pose_list(value) else 1
+    return len(value) if is_pose_list(value) else 1
 
 
 def pose_list(value, field: str) -> tuple[np.ndarray, bool]:
@@ -62,7 +62,7 @@ def pose_list(value, field: str) -> tuple[np.ndarray, bool]:
             raise PoseError(f"{field}[{int(np.argmin(rigid))}]: not a rigid transform (rotation orthonormal with "
                             "det 1, last row 0 0 0 1)")
         return T, is_batch
-    if _is_pose_list(value):
+    if is_pose_list(value):
         if isinstance(value[0], list):  # a batch of 4x4 matrices: checked as one array (~100x faster)
             try:
                 arr = np.array(value, dtype=float)
@@ -70,10 +70,10 @@ def pose_list(value, field: str) -> tuple[np.ndarray, bool]:
                 arr = None
             if arr is not None and arr.ndim == 3 and arr.shape[1:] == (4, 4):
                 return pose_list(arr, field)[0], True
-        return np.stack([_one_pose(v, f"{field}[{i}]", PoseError) for i, v in enumerate(value)]), True
+        return np.stack([read_pose(v, f"{field}[{i}]", PoseError) for i, v in enumerate(value)]), True
     if isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 0:
         raise PoseError(f"{field}: an empty list of poses")
-    return _one_pose(value, field, PoseError)[None], False
+    return read_pose(value, field, PoseError)[None], False
 
 
 def tool_offset(point=None, tool=None) -> np.ndarray | None:
@@ -92,7 +92,7 @@ def tool_offset(point=None, tool=None) -> np.ndarray | None:
         if isinstance(point, np.ndarray):
             point = point.tolist()
         T = np.eye(4)
-        T[:3, 3] = _vector(point, 3, "point", PoseError)
+        T[:3, 3] = read_vector(point, 3, "point", PoseError)
         return T
     if tool is None:
         return None

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import DHError, KinematicsError
 from ..spatial.rotations import matrix_to_rpy_exact
-from ..tolerances import AXIS_EPS, MAX_ABS_COORDINATE, RIGID_TOLERANCE
+from ..tolerances import MAX_ABS_COORDINATE, RIGID_TOLERANCE
 from . import dh_table as dh
 from .text_files import fields, read_description_file  # noqa: F401 - fields: the descriptions read theirs with it
 
@@ -281,11 +281,6 @@ def serial_chain_urdf(robot: str, joints: list[ChainJoint], tool: np.ndarray, co
     out += lines
     out.append("</robot>")
     return "\n".join(out) + "\n"
-
-
-def check_axis(v: np.ndarray, where: str, cls: type[KinematicsError]) -> None:
-    if float(np.linalg.norm(v)) <= AXIS_EPS:
-        raise cls(f"{where}: the axis is zero")
 
 
 def check_coordinates(v: np.ndarray, where: str, cls: type[KinematicsError]) -> None:

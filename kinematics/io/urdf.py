@@ -121,7 +121,7 @@ def _declare_prefixes(data: bytes) -> bytes | None:
     return data[:at] + decls + data[at:]
 
 
-def _read_xml(data: bytes) -> ET.Element:
+def read_xml(data: bytes) -> ET.Element:
     try:
         return _parse(data)
     except ET.ParseError as exc:
@@ -437,7 +437,7 @@ def parse_urdf(text: str | bytes, *, max_links: int = DEFAULT_MAX_LINKS) -> Robo
     :class:`~kinematics.errors.UnsupportedJointError`) naming the element at fault.
     """
     data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
-    root_el = _read_xml(data)
+    root_el = read_xml(data)
     xacro = xacro_use(root_el)
     if xacro is not None:
         raise URDFError(

@@ -37,8 +37,8 @@ import numpy as np
 
 from ..errors import UnknownMeshError, URDFError
 from ..model.robot import RobotModel
-from .collision_geometry import MAX_MESH_BYTES, _numbers, geometry_elements, model_meshes, resolve_mesh
-from .urdf import _read_xml
+from .collision_geometry import MAX_MESH_BYTES, attribute_numbers, geometry_elements, model_meshes, resolve_mesh
+from .urdf import read_xml
 
 #: the media type of each mesh format served
 MESH_MEDIA_TYPES = {"stl": "model/stl", "obj": "model/obj", "dae": "model/vnd.collada+xml"}
@@ -96,7 +96,7 @@ def _color(mat) -> tuple[float, ...] | None:
     c = mat.find("color") if mat is not None else None
     if c is None:
         return None
-    rgba = _numbers(c.get("rgba"), 4, (1.0, 1.0, 1.0, 1.0), "<color rgba>")
+    rgba = attribute_numbers(c.get("rgba"), 4, (1.0, 1.0, 1.0, 1.0), "<color rgba>")
     return tuple(min(max(x, 0.0), 1.0) for x in rgba)
 
 
@@ -105,7 +105,7 @@ def visual_geometry(model: RobotModel) -> VisualGeometry:
     is skipped and named in ``warnings``. Opens no file (catalogue meshes are only resolved)."""
     source = model_meshes(model)
     try:
-        root = _read_xml(model.urdf.encode("utf-8"))
+        root = read_xml(model.urdf.encode("utf-8"))
     except URDFError:
         return VisualGeometry({link: () for link in model.links},
                               warnings=("the model's URDF text could not be re-read for its visuals",))

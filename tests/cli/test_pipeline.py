@@ -423,7 +423,7 @@ def test_streaming_200k_rows_stays_in_bounded_memory(tmp_path, ur5, capsys):
 
 
 def test_an_atomic_file_replaces_its_destination_only_when_done(tmp_path):
-    from kinematics.cli.pipeline import atomic_file
+    from kinematics.cli.common import atomic_file
 
     dest = tmp_path / "out.bin"
     dest.write_bytes(b"old")

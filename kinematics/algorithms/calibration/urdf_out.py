@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from ...io.urdf import _read_xml
+from ...io.urdf import read_xml
 from ...model.robot import RobotModel
 from ...spatial.rotations import matrix_to_rpy_exact
 
@@ -35,7 +35,7 @@ def corrected_urdf(model: RobotModel, corrections: dict[str, np.ndarray], name: 
     >>> parse_urdf(corrected_urdf(parse_urdf(text), {"j": T})).joints[0].origin[:3, 3].tolist()
     [1.0, 0.5, 0.0]
     """
-    root = _read_xml(model.urdf.encode() if isinstance(model.urdf, str) else model.urdf)
+    root = read_xml(model.urdf.encode() if isinstance(model.urdf, str) else model.urdf)
     joint_map = model.joint_map
     for el in root.findall("joint"):
         jname = el.get("name")

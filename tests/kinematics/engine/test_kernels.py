@@ -48,7 +48,7 @@ def _load(catalogue, model_id):
 
     try:
         return catalogue.get(model_id)
-    except URDFError as exc:  # e.g. ur3_unnamed, refused by the catalogue itself
+    except URDFError as exc:  # a model the parser refuses
         pytest.skip(f"{model_id}: {exc}")
 
 
