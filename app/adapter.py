@@ -25,13 +25,14 @@ as heavy work, shape the answer.
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Awaitable, Callable, Literal
+from typing import Annotated, Any, Awaitable, Callable, Iterable, Iterator, Literal
 
 import numpy as np
 from fastapi import Query, Request, Response
 from fastapi.routing import APIRoute
 from pydantic import StringConstraints
 
+from kinematics.engine.cancel import check as check_cancelled
 from kinematics.usecases import Budget
 
 from .deps import media_type, read_body
@@ -71,7 +72,17 @@ def budget(settings: Settings) -> Budget:
     """The :class:`kinematics.Budget` of every request, from the service's settings."""
     return Budget(max_batch=settings.max_batch, max_verify=settings.max_verify,
                   max_result_values=settings.max_result_values, max_ik_work=settings.max_ik_work,
-                  max_workspace_samples=settings.max_workspace_samples)
+                  max_workspace_samples=settings.max_workspace_samples, max_ik_solutions=settings.max_ik_solutions,
+                  max_measurements=settings.max_measurements)
+
+
+def checked(items: Iterable, every: int = 1024) -> Iterator:
+    """``items``, with the request's cancellation checked every ``every`` of them: for the loops that
+    build a large answer (its budget and its client hold there too; outside heavy work, no check)."""
+    for i, item in enumerate(items):
+        if i % every == 0:
+            check_cancelled()
+        yield item
 
 
 def configurations(q: Any) -> int:

@@ -163,6 +163,7 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
     if isinstance(exc, TimeBudgetError):  # a time budget (closed forms' too): the setting and its limit in seconds
+        status = 422 if exc.setting == "timeout" else status  # the request's own time limit: the client's choice
         return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
     if isinstance(exc, LockedJointError):
         return problem(status, title, detail, slug, model=model_id, field="locked", joint=exc.joint)
@@ -212,7 +213,13 @@ def _message(error: dict, field: str) -> str:
     hint = _PATTERN_HINTS.get(field.split(".", 1)[0])
     if hint is not None and error.get("type") == "string_pattern_mismatch":
         return f"{str(error.get('input'))[:100]!r} {hint}"
+    if error.get("type") == "finite_number":  # NaN / Infinity: named, not compared with a range
+        return f"{error.get('msg', '')}, not {_NON_FINITE.get(str(error.get('input')), error.get('input'))}"
     return error.get("msg", "")
+
+
+#: how JSON (and Python's json module) spells the non-finite numbers pydantic refuses
+_NON_FINITE = {"nan": "NaN", "inf": "Infinity", "-inf": "-Infinity"}
 
 
 def validation_problem(errors: list[dict]) -> ProblemResponse:

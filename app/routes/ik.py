@@ -27,8 +27,9 @@ from kinematics import usecases
 from kinematics.io.poses import pose_count
 from kinematics.usecases.ik_all import parse_locked as read_locked
 
-from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
-                       execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
+from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, checked,
+                       error_responses, execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request,
+                       request_body_doc)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -156,6 +157,10 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
     })
 
 
+#: targets whose solution records are built between two checks of the request's cancellation
+RECORD_TARGETS = 256
+
+
 def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request):
     """Every solution: JSON records per target, or ``.npz`` arrays padded with NaN."""
     if wants_npz(request):
@@ -170,7 +175,7 @@ def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request)
     return FastJSONResponse({
         "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
         "method": answer.method, "family": answer.family, "locked": answer.locked,
-        "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
+        "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in checked(range(len(answer.count)), RECORD_TARGETS)]),
         "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
         "verification": answer.verification,
     })

@@ -14,12 +14,15 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict
+from pydantic import AllowInfNan, BaseModel, BeforeValidator, ConfigDict, Field, Strict
 
 from kinematics.spatial.reference import Reference
 from kinematics.usecases import UNBOUNDED, Budget, Query
 
 Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolean)
+#: a number a client chooses as a size, a time or a tolerance: finite (NaN and Infinity are refused as such,
+#: not as out of a range they are not comparable with)
+Finite = Annotated[float, Strict(), AllowInfNan(False)]
 Flag = Annotated[bool, Strict()]  # true or false (not 0, 1 or "yes")
 
 

@@ -6,7 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
+from .common import BasePose, Flag, Integer, JointValues, Finite, Number, QueryRequest, Vector
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -14,8 +14,8 @@ _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", 
 
 class IKTolerance(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: Number = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
-    rotation: Number = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
+    position: Finite = Field(default=1e-6, ge=1e-12, description="metres between the answer's link origin and the target")
+    rotation: Finite = Field(default=1e-6, ge=1e-12, description="radians: the angle of R_target^T R (pose mode)")
 
 
 

@@ -7,7 +7,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector
+from .common import BasePose, Flag, JointValues, Finite, Number, QueryRequest, Vector
 from .ik import IKTolerance
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
@@ -51,8 +51,8 @@ class IKFamilyResponse(BaseModel):
 
 class PathStep(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: Number = Field(default=0.01, gt=0, description="metres between consecutive targets at most")
-    rotation: Number = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
+    position: Finite = Field(default=0.01, gt=0, description="metres between consecutive targets at most")
+    rotation: Finite = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
 
 
 class IKPathRequest(QueryRequest):
@@ -61,7 +61,7 @@ class IKPathRequest(QueryRequest):
     seed: Union[JointValues, None] = Field(default=None, description="the start configuration (default: the solution "
                                                                     "of the first target nearest the middle of the limits)")
     step: PathStep = Field(default_factory=PathStep)
-    max_joint_step: Number = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
+    max_joint_step: Finite = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
     avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "

@@ -83,6 +83,43 @@ def parse_locked(items: Iterable[str] | None) -> dict[str, float]:
     return out
 
 
+def free_chain(model: RobotModel, link: str, locked: dict | None, T_tool=None):
+    """The chain to ``link`` with ``locked`` joints folded in (:func:`reduce_chain`); one with no joint
+    left to move (all locked, or none on the way) is a :class:`KinematicsError`: there is nothing to
+    solve (every IK operation, the family included, refuses it alike)."""
+    chain = reduce_chain(model, link, locked, T_tool)
+    if not chain.joints:
+        why = "every joint of the chain to {} is locked" if chain.locked else "the chain to {} has no joint"
+        raise KinematicsError(why.format(link) + ": nothing left to solve; its pose is the forward kinematics "
+                              "of the configuration (fk)")
+    return chain
+
+
+#: the most solutions a chain without a known count can have (the general 6R: 16)
+MOST_SOLUTIONS = 16
+
+
+def most_solutions(model: RobotModel, chain, family, limits: str = "respect") -> int:
+    """The most solutions one target of ``chain`` (of ``family``) can list: the family's count (or
+    :data:`MOST_SOLUTIONS`), times, with ``limits="respect"``, the ``2πk`` copies each revolute joint's
+    range holds (a ±2π joint: 2). What a request's answer could hold, known before the work."""
+    most = family.max_solutions or MOST_SOLUTIONS
+    if limits == "respect":
+        cols = chain.columns[chain.revolute]
+        span = model.upper_limits[cols] - model.lower_limits[cols]
+        span = span[np.isfinite(span)]
+        most *= int(np.prod(np.maximum(1.0, np.ceil(span / (2 * np.pi) - 1e-9))))
+    return int(most)
+
+
+def check_solutions(query: Query, n: int, chain, family, limits: str = "respect") -> None:
+    """Within the budget's ``max_ik_solutions``: ``n`` targets of ``chain`` listing every solution."""
+    most = most_solutions(query.robot, chain, family, limits)
+    query.budget.check("max_ik_solutions", n * most, field="target",
+                       what=f"IK solutions ({n} targets x up to {most} each: the chain's {family.name} family"
+                            + (", with the 2 pi copies within the joint limits)" if limits == "respect" else ")"))
+
+
 def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = "pose",
            position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
            rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE, method: str = "auto",
@@ -115,7 +152,10 @@ def ik_all(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: st
     free = (collision_filter(model, "avoid_collisions", samples=collision_samples, cache_dir=cache_dir)
             if avoid_collisions else None)
     # the work: candidates x Newton steps per target (the search: its seeds x its steps)
-    if detect(reduce_chain(model, link, locked)).closed_form and method != "numeric":
+    chain = free_chain(model, link, locked)
+    family = detect(chain)
+    check_solutions(query, N, chain, family, limits)
+    if family.closed_form and method != "numeric":
         budget.check_ik_work(N, 15, _ik_all.NEAR_STEPS)
     else:
         budget.check_ik_work(N, _ik_all.SEARCH_SEEDS - 1, _ik_all.SEARCH_STEPS)
@@ -202,7 +242,7 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     family, closed_form, max_solutions, subproblems, reversed, near}``."""
     query = Query.of(query, **options)
     link = query.frame_link()
-    chain = reduce_chain(query.robot, link, locked, query.T_tool)
+    chain = free_chain(query.robot, link, locked, query.T_tool)
     fam = detect(chain)
     return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict()}
 
@@ -224,13 +264,19 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
             if avoid_collisions else None)
     W, _ = pose_list(waypoints, "waypoints")
     link = query.frame_link()
+    chain = free_chain(query.robot, link, locked)
+    family = detect(chain)
+    step = step or {}
+    if family.closed_form:  # the path lists every in-limit solution of each of its targets first
+        targets, _ = _ik_path.interpolate(W, float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
+                                          float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)))
+        check_solutions(query, len(targets), chain, family)
     q0 = None
     if seed is not None:
         S = query.seeds(seed, 1)
         if S.shape[0] != 1:
             raise JointValueError("seed: give one start configuration")
         q0 = S[0]
-    step = step or {}
     B = query.base_poses(1)
     return _ik_path.cartesian_path(query.robot, link, W, q0, base=None if B is None else B.reshape(-1, 4, 4)[0],
                                    tool=query.T_tool, locked=locked,
