@@ -32,8 +32,7 @@ from fastapi import Query, Request, Response
 from fastapi.routing import APIRoute
 from pydantic import StringConstraints
 
-from kinematics.engine.cancel import check as check_cancelled
-from kinematics.usecases import Budget
+from kinematics.usecases import Budget, check_cancelled
 
 from .deps import media_type, read_body
 from .errors import ProblemError

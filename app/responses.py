@@ -16,7 +16,7 @@ import numpy as np
 import orjson
 from fastapi.responses import JSONResponse, Response
 
-from kinematics.engine.cancel import check as check_cancelled
+from kinematics.usecases import check_cancelled
 
 NPY_MEDIA_TYPE = "application/x-npy"
 NPZ_MEDIA_TYPE = "application/x-npz"

@@ -23,6 +23,7 @@ out (:class:`~kinematics.errors.TimeBudgetError`); see :mod:`kinematics.engine.c
 """
 
 from ..engine.cancel import Cancellation, cancellable
+from ..engine.cancel import check as check_cancelled
 from .calibration import calibrate, calibration_measurements, calibration_poses
 from .collision import CollisionAnswer, collision, collision_free, collision_matrix
 from .fk import FKAnswer, fk
@@ -41,7 +42,7 @@ from .visual import visual_geometry, visual_mesh
 from .workspace import workspace
 
 __all__ = [
-    "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
+    "Cancellation", "cancellable", "check_cancelled", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
     "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",

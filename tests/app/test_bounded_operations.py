@@ -200,3 +200,24 @@ def test_the_decode_of_a_large_body_and_the_work_share_one_time_budget(make_clie
     assert len(tokens) == 2 and tokens[0] is tokens[1]
     r = client.post("/models/ur5/fk", json={"q": Q, "links": ["tool0"]})
     assert len(tokens) == 4 and tokens[2] is tokens[3] and tokens[2] is not tokens[0]  # one per request
+
+
+# ---------------------------------------------------------------------- checked during the work
+def test_a_large_answer_and_a_collision_batch_stop_when_their_request_is_cancelled(ur5):
+    from app.adapter import checked
+    from app.responses import CHUNK_ITEMS, dump_parts
+    from kinematics import api
+    from kinematics.algorithms import self_collision
+    from kinematics.errors import CancelledError
+
+    content = {"q": list(range(3 * CHUNK_ITEMS))}
+    token = api.Cancellation()
+    token.cancel("the client disconnected")
+    with api.cancellable(token):
+        with pytest.raises(CancelledError):
+            dump_parts(content)
+        with pytest.raises(CancelledError):
+            list(checked(range(10)))
+        with pytest.raises(CancelledError):
+            self_collision.check(ur5, np.zeros((3, 6)), pairs=[("shoulder_link", "forearm_link")])
+    assert b"".join(dump_parts(content)).startswith(b'{"q":[0,1,2') and list(checked(range(3))) == [0, 1, 2]
