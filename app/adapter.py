@@ -41,7 +41,7 @@ from .npy import names_header
 from .registry import MODEL_ID_PATTERN
 from .responses import NPY_MEDIA_TYPE
 from .schemas import Problem
-from .schemas.common import one_or_all  # noqa: F401 (the routes take it from here)
+from .schemas.common import checked, one_or_all  # noqa: F401 (the routes take them from here)
 from .settings import Settings
 
 #: Requests of at most this many configurations are answered on the event loop: their work
@@ -72,7 +72,8 @@ def budget(settings: Settings) -> Budget:
     """The :class:`kinematics.Budget` of every request, from the service's settings."""
     return Budget(max_batch=settings.max_batch, max_verify=settings.max_verify,
                   max_result_values=settings.max_result_values, max_ik_work=settings.max_ik_work,
-                  max_workspace_samples=settings.max_workspace_samples)
+                  max_workspace_samples=settings.max_workspace_samples, max_ik_solutions=settings.max_ik_solutions,
+                  max_measurements=settings.max_measurements)
 
 
 def configurations(q: Any) -> int:

@@ -164,6 +164,7 @@ def kinematics_problem(exc: KinematicsError, model_id: str | None = None) -> Pro
     if isinstance(exc, BudgetError):  # which budget: batch-too-large, verify-too-large, result-too-large
         return problem(status, title, detail, f"{exc.budget}-{slug}", field=exc.field, limit=exc.limit)
     if isinstance(exc, TimeBudgetError):  # a time budget (closed forms' too): the setting and its limit in seconds
+        status = 422 if exc.setting == "timeout" else status  # the request's own time limit: the client's choice
         return problem(status, title, detail, slug, model=model_id, setting=exc.setting, limit=exc.limit)
     if isinstance(exc, LockedJointError):
         return problem(status, title, detail, slug, model=model_id, field="locked", joint=exc.joint)
@@ -317,7 +318,13 @@ def _message(error: dict, field: str, schema: Any = None) -> str:
         if fields:
             given = type(error.get("input")).__name__.replace("dict", "object")
             return f"should be an object with the fields {', '.join(fields)}, got a {given}"
+    if error.get("type") == "finite_number":  # NaN / Infinity: named, not compared with a range
+        return f"{error.get('msg', '')}, not {_NON_FINITE.get(str(error.get('input')), error.get('input'))}"
     return error.get("msg", "")
+
+
+#: how JSON (and Python's json module) spells the non-finite numbers pydantic refuses
+_NON_FINITE = {"nan": "NaN", "inf": "Infinity", "-inf": "-Infinity"}
 
 
 def validation_problem(errors: list[dict], schema: Any = None) -> ProblemResponse:

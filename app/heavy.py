@@ -8,8 +8,9 @@ loop or on the default thread pool, which heavy work does not use, and the threa
 pool run at a lower scheduling priority (``KIN_HEAVY_NICE``) so that the CPU goes first to the
 threads that answer light requests.
 
-Each heavy call gets a :class:`kinematics.usecases.Cancellation` with the time budget
-``KIN_REQUEST_TIMEOUT`` (counted from when the call is queued). The library checks it between
+Each request's heavy calls share one :class:`kinematics.usecases.Cancellation` with the time budget
+``KIN_REQUEST_TIMEOUT`` (counted from when its first heavy call, the decode of a large body, is
+queued: :func:`request_token`). The library checks it between
 pieces of the work (``kinematics.engine.cancel``); while the work runs, the event loop polls the
 connection every :data:`POLL_SECONDS` and cancels the token when the client has disconnected, so
 no CPU is spent on an answer nobody reads. Over its budget the request ends with 503
@@ -76,13 +77,24 @@ def _call(token: api.Cancellation, state: dict, fn: Callable, args: tuple) -> An
         return fn(*args)
 
 
+def request_token(request: Request) -> api.Cancellation:
+    """The request's one :class:`~kinematics.usecases.Cancellation`, made on its first heavy call: the
+    decode of its body and its work share the budget ``KIN_REQUEST_TIMEOUT`` (the work does not get a
+    fresh one after a long decode)."""
+    token = getattr(request.state, "kin_cancellation", None)
+    if token is None:
+        token = request.state.kin_cancellation = api.Cancellation(request.app.state.settings.request_timeout,
+                                                                  setting=SETTING)
+    return token
+
+
 async def run_heavy(request: Request, fn: Callable, *args: Any, waits: bool = False) -> Any:
     """``fn(*args)`` on the heavy pool, under the request's time budget and cancelled with its client.
 
     ``waits``: the work runs in another process (closed forms) and this thread only waits for it:
     it runs on the loop's default executor and takes no heavy slot."""
     settings = request.app.state.settings
-    token = api.Cancellation(settings.request_timeout, setting=SETTING)
+    token = request_token(request)
     state = {"started": False}
     pool = None if waits else heavy_pool(settings.max_heavy_jobs, settings.heavy_nice)
     ctx = contextvars.copy_context()  # the request id and the thread count go with the work
@@ -143,11 +155,30 @@ _decoders: dict[int, Any] = {}
 
 
 def _quiet_child() -> None:
-    """The decoder process leaves SIGINT / SIGTERM to its worker, which shuts it down."""
+    """The decoder process leaves SIGINT / SIGTERM to its worker, and ends with it.
+
+    It ends when the worker ends, however the worker does (a graceful stop, uvicorn re-raising the
+    SIGTERM it handled, which kills the worker before its exit handlers run, a SIGKILL, a failed
+    start): a thread of the decoder waits on the worker's sentinel (a pipe only the worker holds
+    open, closed by the kernel when it dies) and then exits the process. Without it the decoder,
+    blocked on its job queue (whose write end it holds itself), lived on under PID 1, and with it
+    multiprocessing's resource tracker (which ends when the last process holding its pipe does).
+    ``prctl(PR_SET_PDEATHSIG)`` would not do: it fires when the *thread* that started the decoder
+    ends (a test client's event-loop thread), not the process."""
+    import multiprocessing
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        threading.Thread(target=_exit_with, args=(parent,), name="exit-with-worker", daemon=True).start()
+
+
+def _exit_with(parent) -> None:
+    """Wait for ``parent`` (a :func:`multiprocessing.parent_process`) to end, then end this process."""
+    parent.join()
+    os._exit(0)
 
 
 def decode_json(schema_name: str, body: bytes) -> tuple[str, Any]:

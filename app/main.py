@@ -141,6 +141,19 @@ def _document_limits(app: FastAPI, schema: dict) -> None:
     samples = components.get("WorkspaceRequest", {}).get("properties", {}).get("samples")
     if samples is not None:
         samples["maximum"] = settings.max_workspace_samples
+    # the bounds checked before the work that no JSON-schema keyword can say, in words
+    for name, field, text in (
+            ("IKRequest", "solutions", f"all: at most {settings.max_ik_solutions} solutions in one request "
+                                       "(KIN_MAX_IK_SOLUTIONS), counted before the work as targets x the most the "
+                                       "chain can have; over it: 413 ik-solutions-too-large"),
+            ("IKPathRequest", "step", f"the path's interpolated targets x the most solutions the chain can have: at "
+                                      f"most {settings.max_ik_solutions} (KIN_MAX_IK_SOLUTIONS; 413)")):
+        prop = components.get(name, {}).get("properties", {}).get(field)
+        if prop is not None:
+            prop["description"] = f"{prop.get('description', '')} ({text})".strip()
+    measurements = components.get("CalibrationRequest", {}).get("properties", {}).get("measurements")
+    for branch in (measurements or {}).get("anyOf", []):
+        branch["maxItems"] = settings.max_measurements
     for name, field in BATCH_FIELDS:
         prop = components.get(name, {}).get("properties", {}).get(field)
         for branch in (prop or {}).get("anyOf", []):

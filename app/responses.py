@@ -16,6 +16,8 @@ import numpy as np
 import orjson
 from fastapi.responses import JSONResponse, Response
 
+from kinematics.usecases import check_cancelled
+
 NPY_MEDIA_TYPE = "application/x-npy"
 NPZ_MEDIA_TYPE = "application/x-npz"
 PROBLEM_MEDIA_TYPE = "application/problem+json"
@@ -69,6 +71,7 @@ def _parts(value: Any, out: list[bytes]) -> None:
             out.append(sep + orjson.dumps(value[a:a + CHUNK_ITEMS], option=_ORJSON_OPTIONS, default=_default)[1:-1])
             sep = b","
             time.sleep(0)  # hand the GIL over: a thread waiting for it (the event loop) goes first
+            check_cancelled()  # a large answer is built under the request's budget, stopped with its client
         out.append(b"]")
     else:
         out.append(orjson.dumps(value, option=_ORJSON_OPTIONS, default=_default))

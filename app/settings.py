@@ -15,6 +15,11 @@ variable                   default                     meaning
 ``KIN_MAX_RESULT_VALUES``  32,000,000                  numbers in one FK / Jacobian answer
 ``KIN_MAX_WORKSPACE_SAMPLES`` 1,000,000                configurations one workspace request
                                                        may sample
+``KIN_MAX_IK_SOLUTIONS``   1,000,000                   IK solutions one request may list: targets
+                                                       (or a path's interpolated targets) x the most
+                                                       solutions the chain can have, checked before
+                                                       the work
+``KIN_MAX_MEASUREMENTS``   100,000                     measurements of one calibration (JSON or file)
 ``KIN_COLLISION_SAMPLES``  10,000                      random configurations behind a model's
                                                        allowed-collision matrix (computed once,
                                                        kept in the data directory)
@@ -85,6 +90,10 @@ class Settings(BaseSettings):
                              description="most IK steps one request may take: targets x (restarts + 1) x max_iterations")
     max_result_values: int = Field(default=32_000_000, gt=0,
                                    description="most numbers in one FK / Jacobian answer (N x links x 16, N x 6 x dof)")
+    max_ik_solutions: int = Field(default=1_000_000, gt=0,
+                                  description="most IK solutions one request may list (every solution of every "
+                                              "target, or of every target of a path), counted before the work")
+    max_measurements: int = Field(default=100_000, gt=0, description="most measurements in one calibration")
     collision_samples: int = Field(default=10_000, gt=0, le=1_000_000,
                                    description="random configurations behind a model's allowed-collision matrix")
     max_workspace_samples: int = Field(default=1_000_000, gt=0,

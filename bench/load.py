@@ -8,7 +8,11 @@ each time, so that both workers are probed) and records each latency (connect to
 2. **under load**: ``--clients`` client processes (default 4) each send, continuously, IK
    batches of ``--targets`` reachable ur5 targets (default 10,000; full pose, default
    tolerances, 50 restarts allowed), in JSON and / or as ``.npy`` targets with ``.npz`` answers
-   (``--transport``); ``fk-json``: FK batches of 100,000 configurations in JSON (poses as JSON).
+   (``--transport``); ``fk-json``: FK batches of 100,000 configurations in JSON (poses as JSON);
+   ``calibration``: ur5 calibrations from ``--targets`` / 5 position measurements (JSON);
+   ``collision``: self-collision batches of ``--targets`` configurations with distances (JSON).
+   ``python -m bench.load --transport calibration,collision`` is the mix of heavy requests the
+   health-under-load figures of docs/design.md were measured with.
 
 It reports p50 / p99 / max of both light requests per phase, the heavy requests completed (and
 any non-200 answer), and the load average. The target of the issue: p99 < 50 ms under load.
@@ -65,13 +69,18 @@ def ik_bodies(n: int, seed: int = 0) -> dict[str, tuple[bytes, dict]]:
         "json": (json.dumps({"target": T.tolist(), "link": "tool0"}).encode(), {"Content-Type": "application/json"}),
         "npy": (buf.getvalue(), {"Content-Type": "application/x-npy", "Accept": "application/x-npz"}),
         "fk-json": (json.dumps({"q": Qfk.tolist(), "format": "matrix"}).encode(), {"Content-Type": "application/json"}),
+        "calibration": (json.dumps({"link": "tool0", "measurements": [
+            {"q": q.tolist(), "position": p.tolist()} for q, p in zip(Q[:n // 5], T[:n // 5, :3, 3])]}).encode(),
+            {"Content-Type": "application/json"}),
+        "collision": (json.dumps({"q": Q.tolist(), "distance": True}).encode(), {"Content-Type": "application/json"}),
     }
 
 
 #: configurations of the FK batches of the ``fk-json`` load (JSON in, poses as JSON out)
 FK_BATCH = 100_000
 #: the path each kind of load is sent to
-LOAD_PATHS = {"json": "/models/ur5/ik", "npy": "/models/ur5/ik?link=tool0", "fk-json": "/models/ur5/fk"}
+LOAD_PATHS = {"json": "/models/ur5/ik", "npy": "/models/ur5/ik?link=tool0", "fk-json": "/models/ur5/fk",
+              "calibration": "/models/ur5/calibrate", "collision": "/models/ur5/collision"}
 
 
 def _load_client(port: int, body: bytes, headers: dict, path: str, stop, counts) -> None:
@@ -83,7 +92,7 @@ def _load_client(port: int, body: bytes, headers: dict, path: str, stop, counts)
             status = 0
         with counts.get_lock():
             counts[0] += 1
-            if status != 200:
+            if status not in (200, 201):
                 counts[1] += 1
 
 
@@ -143,10 +152,12 @@ def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
             stop.set()
             for p in procs:
                 p.join(120)
-            phase = (f"{clients} clients x FK {FK_BATCH} configurations (JSON)" if transport == "fk-json" else
-                     f"{clients} clients x IK {targets} targets ({transport})")
+            phase = {"fk-json": f"{clients} clients x FK {FK_BATCH} configurations (JSON)",
+                     "calibration": f"{clients} clients x calibration, {targets // 5} measurements (JSON)",
+                     "collision": f"{clients} clients x collision, {targets} configurations (JSON)"}.get(
+                transport, f"{clients} clients x IK {targets} targets ({transport})")
             rows += [_row(phase, "GET /health", t["health"]), _row(phase, "POST fk (1 q)", t["fk"])]
-            per = FK_BATCH if transport == "fk-json" else targets
+            per = {"fk-json": FK_BATCH, "calibration": targets // 5}.get(transport, targets)
             heavy.append([phase, done, f"{done * per / elapsed:,.0f}", counts[1], f"{load:.2f}"])
     return {"rows": rows, "heavy": heavy, "load_alone": load_alone}
 

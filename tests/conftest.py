@@ -92,3 +92,55 @@ def make_client(api_data_dir):
 def api_client(make_client):
     """A TestClient of the service with default settings and an empty data directory."""
     return make_client()
+
+
+# ---------------------------------------------------------------------- nothing outlives the tests' servers
+def _started_by_test_servers(root: str) -> list[tuple[int, str]]:
+    """``(pid, command)`` of the processes (not this one nor its children) whose ``KIN_DATA_DIR`` lies
+    under ``root``: servers a test started (``tests.live``, ``python -m app``) and what they started."""
+    import os
+
+    mine = {os.getpid()}
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit() or int(entry) in mine:
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as f:
+                env = f.read().split(b"\0")
+            with open(f"/proc/{entry}/stat") as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                cmd = f.read().replace(b"\0", b" ").decode(errors="replace").strip()
+        except (OSError, ValueError, IndexError):
+            continue
+        data_dir = next((v[len(b"KIN_DATA_DIR="):] for v in env if v.startswith(b"KIN_DATA_DIR=")), None)
+        if ppid not in mine and data_dir is not None and data_dir.decode(errors="replace").startswith(root):
+            found.append((int(entry), cmd))
+    return found
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_process_outlives_its_server(tmp_path_factory):
+    """After the session, nothing the tests' live servers started is still running (their decoder
+    processes, multiprocessing's resource tracker, ...): waits for them to end (a condition, with a
+    timeout), then kills any left and fails naming them."""
+    import os
+    import signal
+    import time
+
+    yield
+    if not os.path.isdir("/proc"):
+        return
+    root = str(tmp_path_factory.getbasetemp())
+    deadline = time.monotonic() + 30.0
+    left = _started_by_test_servers(root)
+    while left and time.monotonic() < deadline:
+        time.sleep(0.1)
+        left = _started_by_test_servers(root)
+    for pid, _ in left:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+    assert not left, f"processes started by the tests' servers outlived them: {left}"

@@ -19,7 +19,7 @@ from fastapi.responses import Response
 from kinematics import usecases
 from kinematics.errors import CollisionError
 
-from ..adapter import budget, error_responses, execute, one_or_all, read_request, request_body_doc
+from ..adapter import budget, checked, error_responses, execute, one_or_all, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, require_write_key
 from ..responses import FastJSONResponse
 from ..schemas import (COLLISION_EXAMPLES, CollisionMatrixResponse, CollisionPairsRequest, CollisionPairsResponse,
@@ -92,12 +92,12 @@ def _collision(model_id: str, req: CollisionRequest, registry, settings: Setting
     body = {
         "model": rec.id, "joint_names": list(a.joint_names),
         "colliding": pick(a.colliding.tolist()),
-        "pairs": pick([[list(p) for p in row] for row in a.pairs]),
+        "pairs": pick([[list(p) for p in row] for row in checked(a.pairs)]),
         "checked_pairs": len(a.checked), "links": list(a.links), "warnings": list(a.warnings),
     }
     if req.distance:
         body["min_distance"] = pick([_number(d) for d in a.min_distance])
-        body["closest"] = pick([_closest(c, p) for c, p in zip(a.closest, a.points)])
+        body["closest"] = pick([_closest(c, p) for c, p in checked(zip(a.closest, a.points))])
     return FastJSONResponse(body)
 
 

@@ -11,7 +11,7 @@ from typing import Annotated, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field
 
 from .calibration_example import UR5_MEASUREMENTS
-from .common import BasePose, BasePositionQuaternion, Flag, Integer, JointMap, JointVector, Number, Point, ToQuery
+from .common import BasePose, BasePositionQuaternion, Flag, Integer, JointMap, JointVector, Finite, Number, Point, ToQuery
 
 _MEASURE_Q = "the joint values of the measurement: a vector in the model's joint order or a {joint: value} map"
 
@@ -47,10 +47,10 @@ class CalibrationRequest(ToQuery, BaseModel):
     loss: Literal["linear", "huber"] = Field(
         default="linear", description="huber: robust; the measurements beyond the residuals' chi-square 99.99 % bound "
                                       "are named outliers and left out of the final fit")
-    holdout: Number = Field(default=0.0, ge=0.0, lt=1.0, description="fraction of the measurements kept out of the "
+    holdout: Finite = Field(default=0.0, ge=0.0, lt=1.0, description="fraction of the measurements kept out of the "
                                                                      "fit; their RMS is reported (holdout_rmse)")
     random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="which measurements are held out")
-    rotation_weight: Number = Field(default=1.0, gt=0.0, le=1e3, description="metres per radian of a rotation "
+    rotation_weight: Finite = Field(default=1.0, gt=0.0, le=1e3, description="metres per radian of a rotation "
                                                                            "residual (poses): 1 weighs 1 mrad as 1 mm")
     name: Union[str, None] = Field(default=None, max_length=200, description="the calibrated model's name")
     verify: Flag = Field(default=False, description="also compare the calibrated model's FK with Pinocchio's on the "

@@ -6,7 +6,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import _FLOATING_BASE_DESC, _NORMALIZE_DESC, _Q_DESC, Flag, JointValues, Number, ToQuery, Vector
+from .common import _FLOATING_BASE_DESC, _NORMALIZE_DESC, _Q_DESC, Finite, Flag, JointValues, Number, ToQuery, Vector
 
 __all__ = ["CollisionRequest", "CollisionResponse", "ClosestPair", "CollisionMatrixResponse", "DisabledPair",
            "COLLISION_EXAMPLES", "CollisionPairs", "CollisionPairsRequest", "CollisionPairsResponse", "EnabledPair"]
@@ -37,7 +37,7 @@ class CollisionRequest(ToQuery, CollisionPairs):
     q: JointValues = Field(description=_Q_DESC)
     distance: Flag = Field(default=False, description="also the minimum distance over the checked pairs, the closest "
                                                       "pair and its witness points")
-    margin: Number = Field(default=0.0, ge=0.0, le=10.0, description="metres: pairs closer than this count as colliding")
+    margin: Finite = Field(default=0.0, ge=0.0, le=10.0, description="metres: pairs closer than this count as colliding")
     floating_base: Flag = Field(default=False, description=_FLOATING_BASE_DESC)
     normalize: Flag = Field(default=False, description=_NORMALIZE_DESC)
 

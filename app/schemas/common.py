@@ -12,14 +12,17 @@ An operation's request schema derives from it and adds its own fields.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Callable, ClassVar, Literal, Union
+from typing import Annotated, Any, Callable, ClassVar, Iterable, Iterator, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict
+from pydantic import AllowInfNan, BaseModel, BeforeValidator, ConfigDict, Field, Strict
 
 from kinematics.spatial.reference import Reference
-from kinematics.usecases import UNBOUNDED, Budget, Query
+from kinematics.usecases import UNBOUNDED, Budget, Query, check_cancelled
 
 Number = Annotated[float, Strict()]  # a JSON number (not a string, not a boolean)
+#: a number a client chooses as a size, a time or a tolerance: finite (NaN and Infinity are refused as such,
+#: not as out of a range they are not comparable with)
+Finite = Annotated[float, Strict(), AllowInfNan(False)]
 Flag = Annotated[bool, Strict()]  # true or false (not 0, 1 or "yes")
 
 
@@ -117,6 +120,15 @@ class Problem(BaseModel):
 
 #: the fields of :class:`kinematics.Query` a request schema may carry (each is optional on a schema)
 QUERY_FIELDS = ("link", "links", "point", "tool", "base", "floating_base", "normalize", "limits", "verify")
+
+
+def checked(items: Iterable, every: int = 1024) -> Iterator:
+    """``items``, with the request's cancellation checked every ``every`` of them: for the loops that
+    build a large answer (its budget and its client hold there too; outside heavy work, no check)."""
+    for i, item in enumerate(items):
+        if i % every == 0:
+            check_cancelled()
+        yield item
 
 
 def one_or_all(is_batch: bool) -> Callable[[Any], Any]:

@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from .collision import CollisionPairs
 from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance, IKOptions, IKSettings, SolutionSet
 
-from .common import QUERY_FIELDS, BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector, one_or_all
+from .common import QUERY_FIELDS, BasePose, Finite, Flag, Integer, JointValues, Number, QueryRequest, Vector, one_or_all
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -17,9 +17,9 @@ _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", 
 
 class IKTolerance(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: Number = Field(default=DEFAULT_SETTINGS.position_tolerance, ge=1e-12,
+    position: Finite = Field(default=DEFAULT_SETTINGS.position_tolerance, ge=1e-12,
                              description="metres between the answer's link origin and the target")
-    rotation: Number = Field(default=DEFAULT_SETTINGS.rotation_tolerance, ge=1e-12,
+    rotation: Finite = Field(default=DEFAULT_SETTINGS.rotation_tolerance, ge=1e-12,
                              description="radians: the angle of R_target^T R (pose mode)")
 
 

@@ -7,7 +7,10 @@ from typing import Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import BasePose, Flag, JointValues, Number, QueryRequest, Vector, one_or_all
+from .common import BasePose, Finite, Flag, JointValues, Number, QueryRequest, Vector, checked, one_or_all
+
+#: targets whose solution records are built between two checks of the request's cancellation
+RECORD_TARGETS = 256
 from kinematics.usecases.ik_options import CollisionAvoidance, IKOptions, SolutionSet
 
 from .collision import CollisionPairs
@@ -45,7 +48,8 @@ class IKAllResponse(BaseModel):
         return {
             "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
             "method": answer.method, "family": answer.family, "locked": answer.locked,
-            "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
+            "count": one(answer.count.tolist()),
+            "solutions": one([answer.solutions(n) for n in checked(range(len(answer.count)), RECORD_TARGETS)]),
             "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
             "verification": answer.verification,
         }
@@ -76,8 +80,8 @@ class IKFamilyResponse(BaseModel):
 
 class PathStep(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    position: Number = Field(default=0.01, gt=0, description="metres between consecutive targets at most")
-    rotation: Number = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
+    position: Finite = Field(default=0.01, gt=0, description="metres between consecutive targets at most")
+    rotation: Finite = Field(default=0.05, gt=0, description="radians between consecutive targets at most")
 
 
 class IKPathRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoid_collisions checks
@@ -86,7 +90,7 @@ class IKPathRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs 
     seed: Union[JointValues, None] = Field(default=None, description="the start configuration (default: the solution "
                                                                     "of the first target nearest the middle of the limits)")
     step: PathStep = Field(default_factory=PathStep)
-    max_joint_step: Number = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
+    max_joint_step: Finite = Field(default=0.3, gt=0, description="the largest change of any joint between rows (rad or m)")
     tolerance: IKTolerance = Field(default_factory=IKTolerance)
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
     avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "

@@ -7,8 +7,11 @@ from typing import Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import (ToQuery, _BASE_DESC, _LIMITS_DESC, _Q_DESC, _REPRESENTATION_DESC, BasePose, Flag, JointValues,
-                     LimitPolicy, Matrix, Number, TaskRepresentationName, Vector)
+from .common import (ToQuery, _BASE_DESC, _LIMITS_DESC, _Q_DESC, _REPRESENTATION_DESC, BasePose, Finite, Flag,
+                     JointValues, LimitPolicy, Matrix, Number, TaskRepresentationName, Vector)
+
+#: the shortest time limit a closed-form request may ask for, seconds (a worker process starts first)
+MIN_TIMEOUT = 0.1
 
 SymbolicWhat = Literal["transforms", "jacobian", "task"]
 SymbolicFormat = Literal["latex", "python", "c", "text"]
@@ -27,7 +30,10 @@ class _SymbolicOptions(BaseModel):
     components: list[str] | None = Field(default=None, min_length=1, description="keep these components of the task vector")
     variables: Literal["q", "names"] = Field(default="q", description="joint variables q1..qn, or the joint names")
     prefix: str = Field(default="", max_length=64, description="prefix of the C function names")
-    timeout: Number | None = Field(default=None, gt=0, description="seconds (at most the service's limit)")
+    timeout: Finite | None = Field(default=None, ge=MIN_TIMEOUT, le=3600,
+                                   description=f"seconds, at least {MIN_TIMEOUT:g} (the service's limit "
+                                               "KIN_SYMBOLIC_TIMEOUT applies when it is shorter); a derivation over "
+                                               "this request's own timeout is a 422, over the service's a 503")
 
 
 class SymbolicRequest(_SymbolicOptions):

@@ -6,7 +6,7 @@ from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .common import ToQuery, _POINT_DESC, _TOOL_DESC, BasePose, Flag, Integer, Number, Point, Vector
+from .common import ToQuery, _POINT_DESC, _TOOL_DESC, BasePose, Flag, Integer, Finite, Number, Point, Vector
 
 class WorkspaceRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -16,7 +16,7 @@ class WorkspaceRequest(ToQuery, BaseModel):
     samples: Integer = Field(default=100_000, ge=1, description="configurations drawn uniformly within the joint limits "
                                                              "(bounded by the max_workspace_samples setting)")
     random_seed: Integer = Field(default=0, ge=0, le=2**63 - 1, description="seed of the draws: same inputs, same answer")
-    voxel: Number | None = Field(default=None, gt=0, description="edge of the occupancy-grid cells, metres (default: "
+    voxel: Finite | None = Field(default=None, gt=0, description="edge of the occupancy-grid cells, metres (default: "
                                                                 "chosen so that the bounding box has about samples/16 cells)")
     measure: Literal["pose", "position"] = Field(
         default="pose", description="manipulability: product of the singular values of the 6 x k local_world_aligned "

@@ -50,6 +50,7 @@ try:
 except ImportError:  # the `collision` extra (coal comes with pin); refused where a collision model is built
     coal = None
 
+from ..engine import cancel
 from ..engine.poe import compile_model
 from ..errors import CollisionError, MissingExtraError
 from ..io.collision_geometry import MAX_MESH_TRIANGLES, MAX_MODEL_TRIANGLES, CollisionGeometry, Shape
@@ -105,11 +106,35 @@ def _bvh(vertices: np.ndarray, triangles: np.ndarray):
     return m
 
 
+def _triangles_at_least(data: bytes, fmt: str) -> int:
+    """A lower bound of the triangles of a mesh file, read from its bytes without parsing it (0 when
+    the format does not say): a binary STL's count, an ASCII STL's facets, an OBJ's face lines (a
+    polygon is one or more triangles), a PLY's face element, a COLLADA file's triangle counts."""
+    import re
+
+    if fmt == "stl":
+        if data[:5].lower() == b"solid" and b"facet" in data[:4096]:
+            return data.count(b"facet normal")
+        return int.from_bytes(data[80:84], "little") if len(data) >= 84 else 0
+    if fmt == "obj":
+        return data.count(b"\nf ") + data.count(b"\nf\t") + int(data[:2] in (b"f ", b"f\t"))
+    if fmt == "ply":
+        m = re.search(rb"element\s+face\s+(\d+)", data[:65536])
+        return int(m.group(1)) if m else 0
+    if fmt == "dae":
+        return sum(int(c) for c in re.findall(rb"<(?:triangles|polylist|polygons)[^>]*?count=\"(\d{1,12})\"", data))
+    return 0
+
+
 def _mesh_from_bytes(shape: Shape):
     """vertices (scaled) and triangles of an archive's mesh, read with trimesh from memory only."""
     import trimesh  # heavy import, kept local
 
     data = shape.data or b""
+    counted = _triangles_at_least(data, shape.format)  # from the bytes: a huge mesh is refused before parsing
+    if counted > MAX_MESH_TRIANGLES:
+        raise CollisionGeometryError(f"mesh {shape.source!r} has at least {counted} triangles; "
+                                     f"the limit is {MAX_MESH_TRIANGLES}")
     if shape.format == "dae":  # XML: refuse DTDs and entities before any other parser sees it
         import defusedxml.ElementTree as DET
 
@@ -411,6 +436,7 @@ class CollisionModel:
         objs, bounds = self._objects, self._bounds
         links = self.links
         for start in range(0, N, chunk):
+            cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
             T = self.link_poses(Q[start:start + chunk])
             n_rows = len(T)
             W = T[:, self._shape_link] @ self._origins  # (n, S, 4, 4) shapes in the world (matmul: einsum's 4x time)

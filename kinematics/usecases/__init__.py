@@ -23,6 +23,7 @@ out (:class:`~kinematics.errors.TimeBudgetError`); see :mod:`kinematics.engine.c
 """
 
 from ..engine.cancel import Cancellation, cancellable
+from ..engine.cancel import check as check_cancelled
 from .calibration import calibrate, calibration_measurements, calibration_poses
 from .collision import CollisionAnswer, UserPairs, collision, collision_free, collision_matrix
 from .fk import FKAnswer, fk
@@ -43,7 +44,7 @@ from .warm import warm_up
 from .workspace import workspace
 
 __all__ = [
-    "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
+    "Cancellation", "cancellable", "check_cancelled", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
     "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "CollisionAvoidance", "IKOptions", "IKSettings",
     "SolutionSet", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",

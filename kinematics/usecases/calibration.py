@@ -28,12 +28,14 @@ def calibration_measurements(query: Query | RobotModel, measurements: Any = None
     name map; every entry of one kind), or a CSV text (:mod:`kinematics.io.measurements`)."""
     query = Query.of(query, **options)
     model = query.robot
-    if csv is not None:
+    if csv is not None:  # its rows counted from the bytes, before any is parsed
+        query.budget.check("max_measurements", _csv_rows(csv), what="measurements (CSV rows)", field="measurements")
         m = parse_measurements_csv(csv, model.joint_names)
         query.budget.check_batch(len(m.q))
         return m.q, m.positions, m.poses
     if not isinstance(measurements, (list, tuple)) or not measurements:
         raise CalibrationError("measurements: give a non-empty list of {q, position} or {q, pose}")
+    query.budget.check("max_measurements", len(measurements), what="measurements", field="measurements")
     kinds = set()
     for i, m in enumerate(measurements):
         if not isinstance(m, dict) or "q" not in m or len({"position", "pose"} & set(m)) != 1:
@@ -55,6 +57,13 @@ def calibration_measurements(query: Query | RobotModel, measurements: Any = None
         return Q, P, None
     T, _ = pose_list([m["pose"] for m in measurements], "measurements.pose")
     return Q, None, T
+
+
+def _csv_rows(csv: str | bytes) -> int:
+    """The rows of a CSV text after its header line (blank lines counted too: an upper bound)."""
+    nl = b"\n" if isinstance(csv, bytes) else "\n"
+    lines = csv.count(nl) + (0 if csv.endswith(nl) or not csv else 1)
+    return max(0, lines - 1)
 
 
 def _calibration_query(query: Query) -> tuple[RobotModel, str]:

@@ -24,7 +24,7 @@ from ..errors import JointValueError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from .ik_options import IKOptions
-from .ik_select import IKProblem, NearestOfSet
+from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain, most_solutions  # noqa: F401 (the bounds' home)
 from .query import Query
 
 
@@ -115,7 +115,7 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     family, closed_form, max_solutions, subproblems, reversed, near}``."""
     query = Query.of(query, **options)
     link = query.frame_link()
-    chain = reduce_chain(query.robot, link, locked, query.T_tool)
+    chain = free_chain(query.robot, link, locked, query.T_tool)
     fam = detect(chain)
     return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict()}
 
@@ -135,13 +135,19 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
     free = avoid.filter(query.robot, query.collision_pairs) if avoid is not None else None
     W, _ = pose_list(waypoints, "waypoints")
     link = query.frame_link()
+    chain = free_chain(query.robot, link, options.solutions.locked_map)
+    family = detect(chain)
+    step = step or {}
+    if family.closed_form:  # the path lists every in-limit solution of each of its targets first
+        targets, _ = _ik_path.interpolate(W, float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
+                                          float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)))
+        check_solutions(query, len(targets), chain, family)
     q0 = None
     if seed is not None:
         S = query.seeds(seed, 1)
         if S.shape[0] != 1:
             raise JointValueError("seed: give one start configuration")
         q0 = S[0]
-    step = step or {}
     B = query.base_poses(1)
     return _ik_path.cartesian_path(query.robot, link, W, q0, base=None if B is None else B.reshape(-1, 4, 4)[0],
                                    tool=query.T_tool, locked=options.solutions.locked_map,

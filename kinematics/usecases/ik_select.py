@@ -59,11 +59,48 @@ class Selection(Protocol):
         """One answer per target, and with collision avoidance ``collision_free`` (N,) (else None)."""
 
 
+def free_chain(model: RobotModel, link: str, locked: dict | None, T_tool=None):
+    """The chain to ``link`` with ``locked`` joints folded in (:func:`reduce_chain`); one with no joint
+    left to move (all locked, or none on the way) is a :class:`KinematicsError`: there is nothing to
+    solve (every IK operation, the family included, refuses it alike)."""
+    chain = reduce_chain(model, link, locked, T_tool)
+    if not chain.joints:
+        why = "every joint of the chain to {} is locked" if chain.locked else "the chain to {} has no joint"
+        raise KinematicsError(why.format(link) + ": nothing left to solve; its pose is the forward kinematics "
+                              "of the configuration (fk)")
+    return chain
+
+
+#: the most solutions a chain without a known count can have (the general 6R: 16)
+MOST_SOLUTIONS = 16
+
+
+def most_solutions(model: RobotModel, chain, family, limits: str = "respect") -> int:
+    """The most solutions one target of ``chain`` (of ``family``) can list: the family's count (or
+    :data:`MOST_SOLUTIONS`), times, with ``limits="respect"``, the ``2πk`` copies each revolute joint's
+    range holds (a ±2π joint: 2). What a request's answer could hold, known before the work."""
+    most = family.max_solutions or MOST_SOLUTIONS
+    if limits == "respect":
+        cols = chain.columns[chain.revolute]
+        span = model.upper_limits[cols] - model.lower_limits[cols]
+        span = span[np.isfinite(span)]
+        most *= int(np.prod(np.maximum(1.0, np.ceil(span / (2 * np.pi) - 1e-9))))
+    return int(most)
+
+
+def check_solutions(query: Query, n: int, chain, family, limits: str = "respect") -> None:
+    """Within the budget's ``max_ik_solutions``: ``n`` targets of ``chain`` listing every solution."""
+    most = most_solutions(query.robot, chain, family, limits)
+    query.budget.check("max_ik_solutions", n * most, field="target",
+                       what=f"IK solutions ({n} targets x up to {most} each: the chain's {family.name} family"
+                            + (", with the 2 pi copies within the joint limits)" if limits == "respect" else ")"))
+
+
 def set_work(model: RobotModel, link: str, options: IKOptions) -> tuple[int, int]:
     """The work of a full solution set: the closed form's candidates x Newton steps, or the search's
     seeds x its steps."""
     wanted = options.solutions
-    if detect(reduce_chain(model, link, wanted.locked_map)).closed_form and wanted.method != "numeric":
+    if detect(free_chain(model, link, wanted.locked_map)).closed_form and wanted.method != "numeric":
         return 15, _ik_all.NEAR_STEPS
     return _ik_all.SEARCH_SEEDS - 1, _ik_all.SEARCH_STEPS
 
@@ -99,6 +136,9 @@ class IKProblem:
         N = T.shape[0]
         link = query.frame_link()
         free = options.collisions.filter(model, query.collision_pairs) if options.collisions is not None else None
+        if strategy.full_set:  # the largest answer the set could be, before the work
+            chain = free_chain(model, link, options.solutions.locked_map)
+            check_solutions(query, N, chain, detect(chain), options.solutions.solution_limits)
         budget.check_ik_work(N, *strategy.work(model, link, options))
         seeds = query.seeds(seed, N)
         B = query.base_poses(N)

@@ -51,7 +51,15 @@ class Budget:
     ``max_batch``: configurations (IK: targets); ``max_verify``: configurations compared with
     Pinocchio; ``max_result_values``: numbers in the answer; ``max_ik_work``: IK steps a request
     may take at most (targets x (restarts + 1) x max_iterations); ``max_workspace_samples``:
-    samples of a workspace. Over a bound: :class:`BudgetError` naming the setting.
+    samples of a workspace; ``max_ik_solutions``: IK solutions one request may list (every
+    solution of every target, or of every target of a Cartesian path, counted before the work by
+    the most its chain can have); ``max_measurements``: measurements of one calibration. Over a
+    bound: :class:`BudgetError` naming the setting.
+
+    The pattern of every operation (:meth:`check`): say how large the work and the answer will be
+    *before* doing the work, from the request alone (sizes, counts, the largest answer it could
+    build), and refuse over a bound; a refused request allocates nothing. Then, during the work,
+    check the cancellation token (:mod:`kinematics.engine.cancel`) in every loop that can run long.
     """
 
     max_batch: int | None = None
@@ -59,6 +67,24 @@ class Budget:
     max_result_values: int | None = None
     max_ik_work: int | None = None
     max_workspace_samples: int | None = None
+    max_ik_solutions: int | None = None
+    max_measurements: int | None = None
+
+    def check(self, setting: str, n: int, *, what: str, field: str) -> None:
+        """:class:`BudgetError` when ``n`` (how much of ``what`` a request would make or hold, counted
+        before the work) is over the bound ``setting`` (the name of a field of this budget, None:
+        unbounded); ``field`` names the request field to change. The error's ``budget`` is the
+        setting's name without ``max_`` (``ik-solutions``), as the service's 413 type says.
+
+        >>> Budget(max_ik_solutions=100).check("max_ik_solutions", 256, what="IK solutions", field="target")
+        Traceback (most recent call last):
+        ...
+        kinematics.errors.BudgetError: the request could make 256 IK solutions; the limit (max_ik_solutions) is 100
+        """
+        limit = getattr(self, setting)
+        if limit is not None and n > limit:
+            raise BudgetError(f"the request could make {n} {what}; the limit ({setting}) is {limit}",
+                              budget=setting.removeprefix("max_").replace("_", "-"), field=field, limit=limit)
 
     def check_workspace_samples(self, n: int) -> None:
         if self.max_workspace_samples is not None and n > self.max_workspace_samples:

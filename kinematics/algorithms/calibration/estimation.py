@@ -398,6 +398,7 @@ def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
         return _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
 
     def jac(z):
+        cancel.check()  # the Jacobian of every measurement is the larger part of each step
         _, J = residual_and_jacobian(em, Q, _full(x0, sel, z), meas, w)
         return J.reshape(-1, len(x0))[:, sel]
 
