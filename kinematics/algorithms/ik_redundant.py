@@ -50,7 +50,7 @@ from .ik_families import Chain, detect, reduce_chain, validate_locked
 #: Yoshikawa's manipulability √det(J Jᵀ) (largest)
 OBJECTIVES = ("nearest", "margin", "manipulability")
 #: interval ends and optima are found to this (rad or m of the parameter)
-PSI_TOLERANCE = 1e-11
+PSI_TOLERANCE = 1e-13
 #: the first grid over the parameter's range (points), and how many times a cell may be halved
 GRID, REFINE_ROUNDS = 64, 10
 #: two solutions on neighbouring grid points are one branch when no joint moved more than this (rad or m)
@@ -260,6 +260,20 @@ class SelfMotion:
         lo, hi = model.lower_limits[self.column], model.upper_limits[self.column]
         self.lower, self.upper = float(lo), float(hi)
         self.poe = compile_model(model)
+        cols = self.chain.columns
+        lo, hi = model.lower_limits[cols], model.upper_limits[cols]
+        self._limits = (cols, lo, hi, self.chain.revolute & ~model.continuous[cols] & np.isfinite(lo) & np.isfinite(hi))
+
+    def margins(self, q: np.ndarray) -> np.ndarray:
+        """Each chain joint's distance inside its limits (..., n) at ``q`` (..., dof), its best ``2πk``
+        copy for a revolute joint with finite limits (negative: outside, by that much)."""
+        cols, lo, hi, periodic = self._limits
+        x = np.asarray(q)[..., cols]
+        best = np.minimum(x - lo, hi - x)
+        for k in (-2, -1, 1, 2):
+            y = x + 2 * np.pi * k
+            best = np.where(periodic, np.maximum(best, np.minimum(y - lo, hi - y)), best)
+        return best
 
     @property
     def cost(self) -> str:
@@ -324,20 +338,6 @@ def in_limit_copies(model: RobotModel, chain: Chain, q: np.ndarray, count: np.nd
     listed = np.arange(q.shape[1])[None, :] < count[:, None]
     owner = np.repeat(np.arange(len(count)), count)
     return _all_copies(model, chain, q[listed], owner)
-
-
-def margins(model: RobotModel, chain: Chain, q: np.ndarray) -> np.ndarray:
-    """Each chain joint's distance inside its limits (..., n) at ``q`` (..., dof), its best ``2πk`` copy
-    for a revolute joint with finite limits (negative: outside, by that much)."""
-    cols = chain.columns
-    x = q[..., cols]
-    lo, hi = model.lower_limits[cols], model.upper_limits[cols]
-    periodic = chain.revolute & ~model.continuous[cols] & np.isfinite(lo) & np.isfinite(hi)
-    best = np.minimum(x - lo, hi - x)
-    for k in (-2, -1, 1, 2):
-        y = x + 2 * np.pi * k
-        best = np.where(periodic, np.maximum(best, np.minimum(y - lo, hi - y)), best)
-    return best
 
 
 def _wrapped(d: np.ndarray, revolute: np.ndarray) -> np.ndarray:

@@ -127,3 +127,80 @@ def test_bad_parameters_are_named(catalogue):
         red.Redundancy.of({"values": [0.1, float("nan")]})
     with pytest.raises(KinematicsError, match="select"):
         red.Redundancy.of({"select": "best"})
+
+
+# ---------------------------------------------------------------------------------- the whole self-motion
+from kinematics.algorithms import ik_self_motion as sm  # noqa: E402
+
+#: (model, link, targets): the end-joint parameter (one locked chain) and a middle one
+WHOLE = [("panda", "panda_link8", 3), ("kuka_lwr4", "tool", 1)]
+
+
+@pytest.fixture(scope="module")
+def whole(catalogue):
+    out = {}
+    for name, link, n in WHOLE:
+        model = catalogue.get(name)
+        motion = red.SelfMotion(model, link)
+        q, T = _targets(model, link, n, 11)
+        pieces, branches = sm.intervals(motion, T)
+        out[name] = (motion, q, T, pieces, branches)
+    return out
+
+
+def _branch_near(motion, T, psi, q_ref):
+    """The slice's solution at psi nearest q_ref (limits ignored) and its margins."""
+    sl = motion.solve(T[None], np.array([psi]))
+    S = sl.q[0, :sl.count[0]]
+    k = int(np.argmin(sm._dist(motion, S, q_ref)))
+    return S[k], motion.margins(S[k])
+
+
+@pytest.mark.parametrize("name", [w[0] for w in WHOLE])
+def test_interval_ends_sit_at_a_limit_inside_feasible_outside_not(whole, name):
+    motion, q, T, pieces, branches = whole[name]
+    checked = 0
+    for n in range(len(T)):
+        ranges = sm.merged(pieces[n])
+        # sorted, disjoint, and the generating configuration's value inside one (it is within the limits)
+        assert all(a["to"] < b["from"] for a, b in zip(ranges, ranges[1:]))
+        assert any(r["from"] - 1e-9 <= q[n, motion.column] <= r["to"] + 1e-9 for r in ranges)
+        for piece in pieces[n]:
+            assert piece.lo <= piece.hi
+            for side, (psi, step) in enumerate(((piece.lo, -1e-6), (piece.hi, 1e-6))):
+                end = piece.ends[side]
+                if end["reason"] != "joint_limit":
+                    assert end["reason"] in ("parameter_limit", "branch_end")
+                    if end["reason"] == "parameter_limit":
+                        assert psi in (motion.lower, motion.upper)
+                    continue
+                at, m = _branch_near(motion, T[n], psi, piece.q[side])
+                j = motion.chain.joints.index(end["joint"])
+                assert abs(m[j]) < 1e-9 and m.min() > -1e-9, (piece.as_dict(), m)
+                _, inside = _branch_near(motion, T[n], psi - step, at)
+                _, outside = _branch_near(motion, T[n], psi + step, at)
+                assert inside.min() > 0 and outside.min() < 0
+                checked += 1
+    assert checked > 0
+
+
+@pytest.mark.parametrize("name, objective", [("panda", o) for o in red.OBJECTIVES] + [("kuka_lwr4", "margin")])
+def test_the_best_point_beats_a_dense_sweep(whole, name, objective):
+    motion, q, T, pieces, branches = whole[name]
+    seed = motion.model.lower_limits * 0.2 + motion.model.upper_limits * 0.8 if objective == "nearest" else None
+    goal = sm.Objective(objective, None if seed is None else np.nan_to_num(seed))
+    found = sm.best(motion, T, goal, pieces, branches)
+    sweep = np.linspace(motion.lower, motion.upper, 2000)
+    for n in range(len(T)):
+        Q, P, count, within, *_ = red.slices(motion, T[n:n + 1], sweep[None], "respect")
+        rows = Q[0, :count[0]]
+        assert found[n] is not None and len(rows)
+        values = goal.values(motion, rows, motion.margins(rows))
+        b = found[n]
+        assert b.value >= values.max() - 1e-9, (b.value, values.max())
+        # the answer is a solution at its parameter value, within the limits, scoring what it claims
+        assert b.q[motion.column] == pytest.approx(b.parameter, abs=1e-12)
+        assert motion.margins(b.q).min() >= -1e-9
+        assert goal.values(motion, b.q, motion.margins(b.q))[0] == pytest.approx(b.value, abs=1e-12)
+        p, r = pose_errors(reference_for(motion.model).poses(b.q)[motion.link][None], T[n:n + 1])
+        assert p[0] < EXACT and r[0] < EXACT
