@@ -51,6 +51,8 @@ from .ik_families import Chain, detect, reduce_chain, validate_locked
 OBJECTIVES = ("nearest", "margin", "manipulability")
 #: interval ends and optima are found to this (rad or m of the parameter)
 PSI_TOLERANCE = 1e-13
+#: the branches are followed on solutions within this (m and rad): exact ones, no least-squares points
+TRACK_TOLERANCE = 1e-10
 #: the first grid over the parameter's range (points), and how many times a cell may be halved
 GRID, REFINE_ROUNDS = 64, 10
 #: two solutions on neighbouring grid points are one branch when no joint moved more than this (rad or m)
@@ -285,8 +287,12 @@ class SelfMotion:
         return exp_screws(c.h[self.k][None], c.r[self.k][None], np.array([self.revolute]),
                           np.asarray(theta, float)[:, None])[:, 0]
 
-    def solve(self, T_root: np.ndarray, psi: np.ndarray) -> Slices:
-        """Every solution (limits ignored) at each pair (``T_root[r]``, ``psi[r]``): a :class:`Slices`."""
+    def solve(self, T_root: np.ndarray, psi: np.ndarray, exact: bool = False) -> Slices:
+        """Every solution (limits ignored) at each pair (``T_root[r]``, ``psi[r]``): a :class:`Slices`.
+        ``exact``: within :data:`TRACK_TOLERANCE` (not the request's tolerances: past the end of a
+        branch the closed form's least-squares point is within those, near the end)."""
+        tolerances = dict(position_tolerance=TRACK_TOLERANCE, rotation_tolerance=TRACK_TOLERANCE) if exact \
+            else self.tolerances
         T_root = np.asarray(T_root, float).reshape(-1, 4, 4)
         psi = np.asarray(psi, float).reshape(-1)
         R = len(psi)
@@ -299,7 +305,7 @@ class SelfMotion:
                 M = self.chain.M
                 G = T_root @ inverse_transform(M) @ E @ M
             sol = all_solutions(self.model, self.link, G, tool=self.tool, locked={**self.locked, self.joint: self.v0},
-                                limits="ignore", seed=seed, **self.tolerances)
+                                limits="ignore", seed=seed, **tolerances)
             q, count, sing, complete = sol.q.copy(), sol.count, sol.singular, sol.complete
             family, method = sol.family.name, sol.method
         else:
@@ -309,7 +315,7 @@ class SelfMotion:
                 rows = np.flatnonzero(psi == v)
                 sol = all_solutions(unlimited, self.link, T_root[rows], tool=self.tool,
                                     locked={**self.locked, self.joint: float(v)}, limits="ignore",
-                                    seed=None if seed is None else seed[rows], **self.tolerances)
+                                    seed=None if seed is None else seed[rows], **tolerances)
                 parts[float(v)] = (rows, sol)
                 family, method = sol.family.name, sol.method if method == "analytic" else method
             K = max((s.q.shape[1] for _, s in parts.values()), default=0)

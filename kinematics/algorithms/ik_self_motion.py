@@ -97,7 +97,7 @@ def _solve(motion: SelfMotion, T_root: np.ndarray, targets: np.ndarray, psi: np.
     """The solutions (K, dof) of each pair (target, ψ), limits ignored, and their limit margins (K, n)."""
     if not len(psi):
         return []
-    sl = motion.solve(T_root[targets], psi)
+    sl = motion.solve(T_root[targets], psi, exact=True)
     M = motion.margins(sl.q)
     return [(sl.q[r, :sl.count[r]], M[r, :sl.count[r]]) for r in range(len(psi))]
 

@@ -150,7 +150,7 @@ def whole(catalogue):
 
 def _branch_near(motion, T, psi, q_ref):
     """The slice's solution at psi nearest q_ref (limits ignored) and its margins."""
-    sl = motion.solve(T[None], np.array([psi]))
+    sl = motion.solve(T[None], np.array([psi]), exact=True)
     S = sl.q[0, :sl.count[0]]
     k = int(np.argmin(sm._dist(motion, S, q_ref)))
     return S[k], motion.margins(S[k])
