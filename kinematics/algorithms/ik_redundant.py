@@ -43,7 +43,7 @@ from ..model.robot import Limits, RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
 from .ik import pose_errors
-from .ik_all import _all_copies, all_solutions
+from .ik_all import SINGULAR, _all_copies, all_solutions  # noqa: F401 (SINGULAR: the answers' flag)
 from .ik_families import Chain, detect, reduce_chain, validate_locked
 
 #: what ``select`` optimises: the distance to the seed (least), the normalised limit margin (largest),
@@ -276,6 +276,10 @@ class SelfMotion:
             y = x + 2 * np.pi * k
             best = np.where(periodic, np.maximum(best, np.minimum(y - lo, hi - y)), best)
         return best
+
+    def family_name(self) -> str:
+        """The family of the chain with the parameter joint locked (at a generic value)."""
+        return detect(reduce_chain(self.model, self.link, {**self.locked, self.joint: self.v0}, self.tool)).name
 
     @property
     def cost(self) -> str:

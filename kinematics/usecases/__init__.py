@@ -28,6 +28,7 @@ from .collision import CollisionAnswer, collision, collision_free, collision_mat
 from .fk import FKAnswer, fk
 from .ik import IKAnswer, ik
 from .ik_all import IKAllAnswer, ik_all, ik_family, ik_path
+from .ik_redundant import IKRedundantAnswer, ik_redundant
 from .jacobian import JacobianAnswer, jacobian
 from .models import (DESCRIPTION_KINDS, compiled_models, description_urdf, dh_form, load_model,
                      model_from_description, reference_name, screws, warm_up)
@@ -42,7 +43,7 @@ from .workspace import workspace
 
 __all__ = [
     "Cancellation", "cancellable", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
-    "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "JacobianAnswer", "jacobian",
+    "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "IKRedundantAnswer", "ik_redundant", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",

@@ -18,6 +18,7 @@ from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
 from .collision import collision_filter
 from .ik_all import SOLUTIONS, ik_all
+from .ik_redundant import ik_redundant
 from .query import Query
 
 #: with avoid_collisions, rounds of fresh seeds (each with its restarts) for a target whose answer collides
@@ -44,7 +45,7 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
        max_iterations: int = _ik.DEFAULT_MAX_ITERATIONS, restarts: int = _ik.DEFAULT_RESTARTS,
        random_seed: int = 0, solutions: str = "one", method: str = "auto", locked: dict | None = None,
        limits: str = "respect", avoid_collisions: bool = False, collision_samples: int = COLLISION_SAMPLES,
-       cache_dir: Any = None, **options: Any):
+       cache_dir: Any = None, redundancy: Any = None, **options: Any):
     """Joint values putting the query's ``link`` (None: the first leaf link) at ``target``: one pose
     or a list (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array),
     ``T_world_link``. With the query's ``point`` or ``tool`` the targets are poses of that frame,
@@ -75,6 +76,11 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, mode: str = 
     """
     if solutions not in SOLUTIONS:
         raise KinematicsError(f"solutions: {solutions!r} is not one of {', '.join(SOLUTIONS)}")
+    if redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
+        if solutions != "all" or avoid_collisions:
+            raise KinematicsError("redundancy: give it with solutions 'all' (avoid_collisions is not supported)")
+        return ik_redundant(query, target, redundancy=redundancy, seed=seed, locked=locked, limits=limits, mode=mode,
+                            position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance, **options)
     if method not in ("auto", "analytic", "numeric"):
         raise KinematicsError(f"method: {method!r} is not one of auto, analytic, numeric")
     if solutions == "all" or method == "analytic" or locked:

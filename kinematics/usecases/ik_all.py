@@ -204,7 +204,10 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     link = query.frame_link()
     chain = reduce_chain(query.robot, link, locked, query.T_tool)
     fam = detect(chain)
-    return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict()}
+    from .ik_redundant import redundancy_family  # a 7-joint chain: its self-motion's parameters
+
+    return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict(),
+            **redundancy_family(query, locked=locked)}
 
 
 def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step: dict | None = None,
