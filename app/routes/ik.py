@@ -29,6 +29,7 @@ from kinematics.usecases.ik_all import parse_locked as read_locked
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
                        execute, names_headers, npy_response_doc, one_or_all, parse_point, read_request, request_body_doc)
+from ..schemas.redundancy import RedundancyRequest
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -129,7 +130,9 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
                          restarts=req.restarts, random_seed=req.random_seed, solutions=req.solutions,
                          method=req.method, locked=req.locked, limits=req.limits,
                          avoid_collisions=req.avoid_collisions, collision_samples=settings.collision_samples,
-                         cache_dir=collision_cache_dir(registry))
+                         cache_dir=collision_cache_dir(registry),
+                         redundancy=None if req.redundancy is None
+                         else RedundancyRequest.model_validate(req.redundancy).as_spec())
     if isinstance(answer, usecases.IKAllAnswer):
         return _all_answer(rec.id, answer, request)
     sol = answer.solution
@@ -165,12 +168,18 @@ def _all_answer(model_id: str, answer: "usecases.IKAllAnswer", request: Request)
                   "rotation_error": answer.rotation_error}
         if answer.colliding is not None:
             arrays["colliding"] = answer.colliding
+        if getattr(answer, "parameter", None) is not None:  # a redundant chain: each solution's parameter value
+            arrays["parameter"] = answer.parameter
         return NpzResponse(arrays, headers=headers)
     one = one_or_all(answer.is_batch)
+    extra = {}
+    if getattr(answer, "parameter", None) is not None:
+        extra = {"parameter": {"joint": answer.parameter_name}, "select": answer.select,
+                 "intervals": None if answer.intervals is None else one(answer.intervals)}
     return FastJSONResponse({
         "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
         "method": answer.method, "family": answer.family, "locked": answer.locked,
         "count": one(answer.count.tolist()), "solutions": one([answer.solutions(n) for n in range(len(answer.count))]),
         "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
-        "verification": answer.verification,
+        "verification": answer.verification, **extra,
     })

@@ -7,6 +7,7 @@ from typing import Literal, Union
 from pydantic import BaseModel, ConfigDict, Field
 
 from .common import BasePose, Flag, Integer, JointValues, Number, QueryRequest, Vector
+from .redundancy import RedundancyRequest
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -50,6 +51,8 @@ class IKRequest(QueryRequest):
                                    "pairs): with solutions all the colliding ones are left out (counted in "
                                    "colliding); with one the search goes on until a free answer is found, and "
                                    "success holds only for a free one. A model without collision geometry: 422")
+    redundancy: Union[RedundancyRequest, None] = Field(
+        default=None, description="a 7-joint chain with solutions all: its self-motion (app/schemas/redundancy.py)")
 
 
 class IKVerification(BaseModel):

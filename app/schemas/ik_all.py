@@ -47,6 +47,10 @@ class IKFamilyResponse(BaseModel):
     reversed: bool = Field(description="solved on the reversed chain (a spherical shoulder)")
     near: bool = Field(description="within a millimetre-scale / milliradian-scale tolerance of the family, not "
                                    "exactly: the closed form seeds Newton steps on the real model")
+    redundant: bool = Field(default=False, description="one free joint more than a pose: a self-motion (redundancy)")
+    default_parameter: dict | None = Field(default=None, description='{"joint": name}: the redundancy default')
+    parameters: list[dict] | None = Field(default=None, description="the parameters giving a closed form, each "
+                                                                    "{joint, family}")
 
 
 class PathStep(BaseModel):

@@ -98,6 +98,9 @@ class Redundancy:
             if set(p) != {"joint"}:
                 raise KinematicsError("redundancy.parameter: give {\"joint\": name}")
             p = p["joint"]
+        if p == "sew":
+            raise KinematicsError("redundancy.parameter: 'sew' (the shoulder-elbow-wrist angle) is not available in "
+                                  "this version; give {\"joint\": name}")
         if p is not None and not isinstance(p, str):
             raise KinematicsError(f"redundancy.parameter: {p!r} is not a joint name")
         values = spec.get("values")
