@@ -179,3 +179,11 @@ def test_example_12_collision_free():
     assert "plain answer free: False" in out and "with avoid_collisions: success True free True" in out
     assert "stopped {'index': 43, 'reason': 'collision'}" in out
     assert re.search(r"workspace: \d+ free samples kept, [1-9]\d* in self-collision dropped", out)
+
+
+def test_example_13_redundancy():
+    out = run_example("13_redundancy.py")
+    assert "redundant: True default parameter: {'joint': 'panda_joint7'}" in out
+    assert "generating configuration listed: True" in out
+    assert deviation(out, "worst error:") < 1e-9
+    assert re.search(r"best margin at q7 = 0\.69", out)
