@@ -17,16 +17,15 @@ locked chain's family, or the general-6R elimination where it has none).
 
 Slices are solved with the limits ignored (each branch once, angles in (−π, π]); the caller applies
 the limits. Along ψ each solution moves smoothly on a **branch**; branches end where two meet (the
-locked chain is singular there: two solutions become one). :func:`intervals` tracks the branches
-over an adaptive grid and finds the ends of the in-limit ranges by bisection on the slices
-themselves (to :data:`PSI_TOLERANCE`), :func:`best` optimises an objective along them
-(golden-section refinement of each grid optimum).
+locked chain is singular there: two solutions become one). :mod:`kinematics.algorithms.ik_self_motion`
+tracks the branches over an adaptive grid, finds the ends of the in-limit ranges by bisection on the
+slices themselves (to :data:`PSI_TOLERANCE`) and optimises an objective along them.
 
 >>> from kinematics.io import default_catalogue
 >>> panda = default_catalogue().get("panda")
 >>> choice = parameters(panda, "panda_link8")
->>> choice.default, choice.joints
-('panda_joint7', ('panda_joint6', 'panda_joint7'))
+>>> choice.default, choice.families["panda_joint7"], choice.families["panda_joint1"]
+('panda_joint7', 'spherical_shoulder_intersecting_12', 'general_6r')
 """
 
 from __future__ import annotations
@@ -202,6 +201,17 @@ def _motion_share(model, link, chain, locked, tool) -> np.ndarray:
     J = compile_model(model).jacobian(Q, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
     null = np.linalg.svd(J)[2][:, -1]
     return np.median(np.abs(null), axis=0)
+
+
+def family_fields(model: RobotModel, link: str, locked: dict | None = None, tool=None) -> dict:
+    """The redundancy fields of a family answer: ``{redundant: false}`` unless the chain has seven free
+    joints, else :meth:`Parameters.as_dict` (no closed-form parameter: ``default_parameter`` None)."""
+    if reduce_chain(model, link, locked, tool).n != 7:
+        return {"redundant": False}
+    try:
+        return parameters(model, link, locked, tool).as_dict()
+    except KinematicsError:
+        return {"redundant": True, "default_parameter": None, "parameters": []}
 
 
 def parameter_joint(model: RobotModel, chain: Chain, name: str | None, default: Callable[[], str]) -> str:

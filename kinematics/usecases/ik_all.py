@@ -24,6 +24,7 @@ from ..algorithms.collision_matrix import DEFAULT_SAMPLES as COLLISION_SAMPLES
 from ..algorithms.ik import IKSolution, inverse_kinematics, pose_errors
 from ..algorithms.ik_collision import free_solutions
 from ..algorithms.ik_families import detect, reduce_chain
+from ..algorithms.ik_redundant import family_fields
 from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
@@ -204,10 +205,8 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     link = query.frame_link()
     chain = reduce_chain(query.robot, link, locked, query.T_tool)
     fam = detect(chain)
-    from .ik_redundant import redundancy_family  # a 7-joint chain: its self-motion's parameters
-
     return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict(),
-            **redundancy_family(query, locked=locked)}
+            **family_fields(query.robot, link, locked, query.T_tool)}  # a 7-joint chain: its self-motion
 
 
 def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step: dict | None = None,

@@ -130,18 +130,3 @@ def _one_each(motion, T_root, found, dof):
         s = np.linalg.svd(J, compute_uv=False)
         singular[n, 0] = s[-1] <= red.SINGULAR * s[0]
     return q, param, count, within, singular, pe, re, np.ones(N, bool)
-
-
-def redundancy_family(query: Query | Any, *, locked: dict | None = None, **options: Any) -> dict[str, Any]:
-    """``{redundant: true, default_parameter, parameters}`` of the query's chain when it is redundant
-    (one joint more than a pose), else ``{redundant: false}``."""
-    query = Query.of(query, **options)
-    from ..algorithms.ik_families import reduce_chain
-
-    link = query.frame_link()
-    if reduce_chain(query.robot, link, locked, query.T_tool).n != 7:
-        return {"redundant": False}
-    try:
-        return red.parameters(query.robot, link, locked, query.T_tool).as_dict()
-    except KinematicsError:
-        return {"redundant": True, "default_parameter": None, "parameters": []}
