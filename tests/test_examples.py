@@ -202,3 +202,11 @@ def test_example_13_client_every_operation(tmp_path):
              "T(q) of planar_2r, x: cos(q1)/2 + 2*cos(q1 + q2)/5", "task: ['px', 'py', 'pz', 'phi', 'theta', 'psi'] (6, 6)"]
     assert [line for line in lines if line not in out] == [], out
     assert deviation(out, "rmse") < 1e-9  # the device's offset frame, found exactly (no noise)
+
+
+def test_example_15_redundancy():
+    out = run_example("15_redundancy.py")
+    assert "redundant: True default parameter: {'joint': 'panda_joint7'}" in out
+    assert "generating configuration listed: True" in out
+    assert deviation(out, "worst error:") < 1e-9
+    assert re.search(r"best margin at q7 = 0\.69", out)

@@ -10,6 +10,7 @@ from .collision import CollisionPairs
 from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance, IKOptions, IKSettings, SolutionSet
 
 from .common import QUERY_FIELDS, BasePose, Finite, Flag, Integer, JointValues, Number, QueryRequest, Vector, one_or_all
+from .redundancy import RedundancyRequest
 
 _POSE_DESC = ('a pose T_world_link: {"position": [x, y, z], "quaternion": {"w", "x", "y", "z"}}, '
               '{"xyz": [..], "rpy": [..]} or a 4x4 matrix')
@@ -59,6 +60,8 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
                                    "pairs): with solutions all the colliding ones are left out (counted in "
                                    "colliding); with one the search goes on until a free answer is found, and "
                                    "success holds only for a free one. A model without collision geometry: 422")
+    redundancy: Union[RedundancyRequest, None] = Field(
+        default=None, description="a 7-joint chain with solutions all: its self-motion (app/schemas/redundancy.py)")
 
     def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
         """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request, built once;

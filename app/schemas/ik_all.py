@@ -45,13 +45,17 @@ class IKAllResponse(BaseModel):
     def content(model_id: str, answer: Any) -> dict[str, Any]:
         """The JSON answer of a :class:`kinematics.IKAllAnswer`: records per target (a single target unwrapped)."""
         one = one_or_all(answer.is_batch)
+        extra = {}
+        if getattr(answer, "parameter", None) is not None:  # a redundant chain: its parameter, intervals, best
+            extra = {"parameter": {"joint": answer.parameter_name}, "select": answer.select,
+                     "intervals": None if answer.intervals is None else one(answer.intervals)}
         return {
             "model": model_id, "link": answer.link, "joint_names": list(answer.model.joint_names),
             "method": answer.method, "family": answer.family, "locked": answer.locked,
             "count": one(answer.count.tolist()),
             "solutions": one([answer.solutions(n) for n in checked(range(len(answer.count)), RECORD_TARGETS)]),
             "colliding": None if answer.colliding is None else one(answer.colliding.tolist()),
-            "verification": answer.verification,
+            "verification": answer.verification, **extra,
         }
 
     @staticmethod
@@ -62,6 +66,8 @@ class IKAllResponse(BaseModel):
                   "rotation_error": answer.rotation_error}
         if answer.colliding is not None:
             arrays["colliding"] = answer.colliding
+        if getattr(answer, "parameter", None) is not None:  # a redundant chain: each solution's parameter value
+            arrays["parameter"] = answer.parameter
         return arrays
 
 
@@ -76,6 +82,10 @@ class IKFamilyResponse(BaseModel):
     reversed: bool = Field(description="solved on the reversed chain (a spherical shoulder)")
     near: bool = Field(description="within a millimetre-scale / milliradian-scale tolerance of the family, not "
                                    "exactly: the closed form seeds Newton steps on the real model")
+    redundant: bool = Field(default=False, description="one free joint more than a pose: a self-motion (redundancy)")
+    default_parameter: dict | None = Field(default=None, description='{"joint": name}: the redundancy default')
+    parameters: list[dict] | None = Field(default=None, description="the parameters giving a closed form, each "
+                                                                    "{joint, family}")
 
 
 class PathStep(BaseModel):

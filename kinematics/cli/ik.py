@@ -99,6 +99,16 @@ def register(sub) -> None:
                    "ignore (each branch once, angles in (-pi, pi])")
     p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[],
                    help="hold a joint at a value (repeat for several; a 7-dof arm with one locked is a 6-joint chain)")
+    p.add_argument("--redundancy", metavar="joint:NAME", default=None,
+                   help="with --all on a 7-joint chain: the joint whose value runs along the self-motion "
+                   "(default: the family's default parameter when --values, --intervals or --select is given)")
+    p.add_argument("--values", metavar="V1,V2,...", default=None,
+                   help="with --all on a 7-joint chain: every solution at each parameter value (a 'parameter' column)")
+    p.add_argument("--intervals", action="store_true",
+                   help="with --all on a 7-joint chain: the in-limit ranges of the parameter per target (on stderr, "
+                   "one JSON line per target)")
+    p.add_argument("--select", choices=("nearest", "margin", "manipulability"), default=None,
+                   help="with --all on a 7-joint chain: the one best in-limit solution over the whole self-motion")
     add_filter_options(p, "--avoid-collisions", "answers free of self-collision only: with --all the colliding "
                        "solutions are left out; else the search goes on until a free answer is found (success only "
                        "when free)")
@@ -147,6 +157,8 @@ def run_ik(args) -> int:
         return fail("ik", locked, EXIT_USAGE)
     if args.all or locked:
         return quietly(_solve_all, args, model, link, seed, locked)
+    if redundancy_of(args) is not None:
+        return fail("ik", "--redundancy, --values, --intervals and --select need --all", EXIT_USAGE)
     return quietly(_solve, args, model, link, seed)
 
 
@@ -158,10 +170,35 @@ def parse_locked(items) -> dict[str, float] | str:
         return f"--locked: {exc}"
 
 
+def redundancy_of(args) -> dict | None | str:
+    """The ``redundancy`` map of ``--redundancy``, ``--values``, ``--intervals``, ``--select`` (None: none of
+    them), or the message of a malformed one."""
+    if args.redundancy is None and args.values is None and not args.intervals and args.select is None:
+        return None
+    spec: dict = {"intervals": bool(args.intervals)}
+    if args.redundancy is not None:
+        kind, _, name = args.redundancy.partition(":")
+        if kind != "joint" or not name:
+            return f"--redundancy: {args.redundancy!r} is not joint:NAME"
+        spec["parameter"] = {"joint": name}
+    if args.values is not None:
+        try:
+            spec["values"] = [float(v) for v in args.values.split(",")]
+        except ValueError:
+            return f"--values: {args.values!r} is not a comma-separated list of numbers"
+    if args.select is not None:
+        spec["select"] = args.select
+    return spec
+
+
 def _solve_all(args, model, link: str, seed, locked) -> int:
     """Every solution of every target: one output row per solution; exit 1 when a target has none."""
     import json
 
+    redundancy = redundancy_of(args)
+    if isinstance(redundancy, str):
+        return fail("ik", redundancy, EXIT_USAGE)
+    extra = ["parameter"] if redundancy is not None else []
     source, in_fmt, dest, out_fmt = endpoints(args)
     if out_fmt not in ("csv", "jsonl"):
         return fail("ik", "--all writes .csv or .jsonl output", EXIT_USAGE)
@@ -179,11 +216,14 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
     try:
         if out_fmt == "csv":
-            out.write(",".join(["target", *names, "position_error", "rotation_error", "within_limits", "singular"]) + "\n")
+            out.write(",".join(["target", *names, "position_error", "rotation_error", "within_limits", "singular",
+                                *extra]) + "\n")
         with open_input(args, model, source, in_fmt, targets=True) as targets:
             for start, T in targets:
-                a = api.ik(query, T, seed=seed, options=options)
+                a = api.ik(query, T, seed=seed, options=options, redundancy=redundancy)
                 family, method = a.family, a.method
+                for n, ranges in enumerate(getattr(a, "intervals", None) or ()):
+                    print(json.dumps({"target": start + n, "intervals": ranges}), file=sys.stderr)
                 if a.colliding is not None:
                     colliding += int(a.colliding.sum())
                 for n in range(len(a.count)):
@@ -194,11 +234,12 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
                         if out_fmt == "csv":
                             out.write(",".join([str(start + n), *(repr(float(v)) for v in rec["q"]),
                                                 repr(rec["position_error"]), repr(rec["rotation_error"]),
-                                                str(rec["within_limits"]).lower(), str(rec["singular"]).lower()]) + "\n")
+                                                str(rec["within_limits"]).lower(), str(rec["singular"]).lower(),
+                                                *(repr(rec[k]) for k in extra)]) + "\n")
                         else:
                             out.write(json.dumps({"target": start + n, "q": dict(zip(names, rec["q"])),
                                                   **{k: rec[k] for k in ("position_error", "rotation_error",
-                                                                         "within_limits", "singular")}}) + "\n")
+                                                                         "within_limits", "singular", *extra)}}) + "\n")
                 if a.verification is not None:
                     print(f"ik: verify: worst position error {a.verification['max_position_error']:.3g} m, rotation "
                           f"{a.verification['max_rotation_error']:.3g} rad vs {a.verification['reference']}",

@@ -30,6 +30,7 @@ from .fk import FKAnswer, fk
 from .ik import IKAnswer, ik
 from .ik_all import IKAllAnswer, ik_all, ik_family, ik_path
 from .ik_options import CollisionAvoidance, IKOptions, IKSettings, SolutionSet
+from .ik_redundant import IKRedundantAnswer, ik_redundant
 from .jacobian import JacobianAnswer, jacobian
 from .models import (DESCRIPTION_KINDS, compiled_models, description_urdf, dh_form, load_model,
                      model_from_description, reference_name, screws)
@@ -45,7 +46,7 @@ from .workspace import workspace
 
 __all__ = [
     "Cancellation", "cancellable", "check_cancelled", "calibrate", "calibration_measurements", "calibration_poses", "FKAnswer", "fk",
-    "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "CollisionAvoidance", "IKOptions", "IKSettings",
+    "IKAnswer", "ik", "IKAllAnswer", "ik_all", "ik_family", "ik_path", "IKRedundantAnswer", "ik_redundant", "CollisionAvoidance", "IKOptions", "IKSettings",
     "SolutionSet", "JacobianAnswer", "jacobian",
     "DESCRIPTION_KINDS", "compiled_models", "description_urdf", "dh_form", "load_model", "model_from_description",
     "reference_name", "screws", "warm_up", "LIMIT_POLICIES", "UNBOUNDED", "Answer", "Budget", "Query",

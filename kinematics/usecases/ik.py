@@ -12,6 +12,7 @@ from ..model.robot import RobotModel
 from .ik_all import IKAllAnswer, ik_all
 from .ik_options import IKOptions
 from .ik_select import IKProblem, Selection, selection
+from .ik_redundant import ik_redundant
 from .query import Query
 
 
@@ -30,7 +31,7 @@ class IKAnswer:
 
 
 def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKOptions | None = None,
-       select: Selection | None = None, **keywords: Any) -> IKAnswer | IKAllAnswer:
+       select: Selection | None = None, redundancy: Any = None, **keywords: Any) -> IKAnswer | IKAllAnswer:
     """Joint values putting the query's ``link`` (None: the first leaf link) at ``target``: one pose
     or a list (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array),
     ``T_world_link``. With the query's ``point`` or ``tool`` the targets are poses of that frame,
@@ -69,6 +70,14 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
     """
     options, rest = IKOptions.split(options, keywords)
+    if redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
+        wanted, settings = options.solutions, options.settings
+        if wanted.solutions != "all" or options.collisions is not None:
+            raise KinematicsError("redundancy: give it with solutions 'all' (avoid_collisions is not supported)")
+        return ik_redundant(query, target, redundancy=redundancy, seed=seed, locked=wanted.locked_map,
+                            limits=wanted.solution_limits, mode=settings.mode,
+                            position_tolerance=settings.position_tolerance,
+                            rotation_tolerance=settings.rotation_tolerance, **rest)
     if options.solutions.solutions == "all":
         return ik_all(query, target, seed=seed, options=options, **rest)
     strategy = selection(options) if select is None else select

@@ -20,6 +20,7 @@ import numpy as np
 from ..algorithms import ik_all as _ik_all
 from ..algorithms import ik_path as _ik_path
 from ..algorithms.ik_families import detect, reduce_chain
+from ..algorithms.ik_redundant import family_fields
 from ..errors import JointValueError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
@@ -117,7 +118,8 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     link = query.frame_link()
     chain = free_chain(query.robot, link, locked, query.T_tool)
     fam = detect(chain)
-    return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict()}
+    return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict(),
+            **family_fields(query.robot, link, locked, query.T_tool)}  # a 7-joint chain: its self-motion
 
 
 def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step: dict | None = None,

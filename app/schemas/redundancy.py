@@ -1,0 +1,40 @@
+"""Wire schema of a redundant (7-joint) chain's self-motion: the ``redundancy`` field of ``POST
+/models/{id}/ik`` with ``solutions: "all"``."""
+
+from __future__ import annotations
+
+from typing import Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .common import Flag, Number
+
+
+class RedundancyParameter(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    joint: str = Field(description="a free joint of the chain: its value runs along the self-motion")
+
+
+class RedundancyRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    parameter: Union[RedundancyParameter, Literal["sew"], None] = Field(
+        default=None, description='what runs along the self-motion: {"joint": name} (default: the family answer\'s '
+                                  'default_parameter)')
+    values: Union[list[Number], list[list[Number]], None] = Field(
+        default=None, description="parameter values: every solution at each (one list for every target, or one "
+                                  "list per target); each solution carries its parameter")
+    intervals: Flag = Field(default=False, description="answer per target the in-limit ranges of the parameter "
+                                                       "({from, to, branches})")
+    select: Literal["nearest", "margin", "manipulability"] | None = Field(
+        default=None, description="the one best in-limit solution over the whole self-motion: nearest the seed, "
+                                  "largest normalised limit margin, or largest manipulability")
+
+    def as_spec(self) -> dict:
+        """The library's ``redundancy`` map."""
+        out = self.model_dump(exclude_none=True)
+        if isinstance(self.parameter, RedundancyParameter):
+            out["parameter"] = {"joint": self.parameter.joint}
+        return out
+
+
+__all__ = ["RedundancyParameter", "RedundancyRequest"]
