@@ -26,6 +26,7 @@ from .usecases import (Budget, CollisionAnswer, FKAnswer, IKAllAnswer, IKAnswer,
                        Verification, VelocityAnswer, calibrate, calibration_poses, collision, collision_free,
                        collision_matrix, fk, ik, ik_all, ik_family, ik_path, jacobian, joint_batch, load_model,
                        symbolic, symbolic_dh, task, velocity, warm_up, workspace)
+from .usecases.trajectory import ToolSpeed, TrajectoryLimits, trajectory
 from .engine.parallel import set_threads, thread_count, threads
 from .engine.poe import PoEModel, compile_model
 from .engine.single import fk_function, jacobian_function
@@ -55,7 +56,7 @@ __all__ = [
     "Budget", "FKAnswer", "IKAnswer", "JacobianAnswer", "Query", "TaskAnswer", "Verification", "VelocityAnswer", "fk",
     "ik", "jacobian", "joint_batch", "load_model", "symbolic", "symbolic_dh", "task", "velocity", "warm_up",
     "workspace", "CollisionAnswer", "IKAllAnswer", "calibrate", "calibration_poses", "collision", "collision_free",
-    "collision_matrix", "ik_all", "ik_family", "ik_path",
+    "collision_matrix", "ik_all", "ik_family", "ik_path", "ToolSpeed", "TrajectoryLimits", "trajectory",
     "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
     "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",
