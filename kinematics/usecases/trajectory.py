@@ -35,7 +35,7 @@ from ..io.poses import tool_offset
 from ..model.robot import RobotModel
 from ..spatial.reference import Reference
 from ..tolerances import LIMIT_TOLERANCE
-from .query import Query
+from .query import Query, prefixed
 
 INTERPOLATIONS = ("spline", "linear")
 #: the largest sampling rate, Hz
@@ -193,7 +193,10 @@ def trajectory(query: Query | RobotModel, waypoints: Any, limits: TrajectoryLimi
     sampling.check(rate, 0.0)
     if not (np.isfinite(blend) and blend >= 0):
         raise TrajectoryError(f"blend: {blend:g}; give a distance >= 0 (0: stop at each corner)")
-    W, _ = query.replace(limits="report").joints(waypoints)
+    try:
+        W, _ = query.replace(limits="report").joints(waypoints)
+    except JointValueError as exc:
+        raise prefixed(exc, "waypoints: ") from None
     if W.shape[0] < 2:
         raise JointValueError(f"waypoints: {W.shape[0]} configuration(s); a trajectory needs at least 2")
     names = list(model.joint_names)
