@@ -3,8 +3,8 @@
 INPUT is read like the joint values of ``kinematics fk`` (CSV with a header of joint names,
 ``.npy``, JSON lines, Parquet); each file is one path. OUTPUT by its extension: ``.npz`` (``t``,
 ``q``, ``qd``, ``qdd``, 0-d ``duration``), ``.csv`` (``t`` and per joint ``q_``, ``qd_``, ``qdd_``
-columns), ``.mcap`` (one ``trajectory_msgs/msg/JointTrajectory``) or a directory ending in
-``.bag`` (a ROS 2 bag of that message); the last two need the `logs` extra. With several inputs,
+columns), ``.mcap`` (one ``trajectory_msgs/msg/JointTrajectory``) or, without an extension, a new
+directory: a ROS 2 bag of that message (as ``ros2 bag record -o NAME``); the last two need the `logs` extra. With several inputs,
 OUTPUT is a directory and each result is named after its input (``--format`` gives the kind), with
 a progress bar; one line per path to stderr: its duration and method.
 """
@@ -35,7 +35,7 @@ def register(sub) -> None:
         epilog="example:\n  kinematics trajectory --model ur5 waypoints.csv --acceleration 3 -o trajectory.npz")
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="waypoints: .csv, .npy, .jsonl or .parquet")
     p.add_argument("-o", "--output", required=True, metavar="OUTPUT",
-                   help=".npz, .csv, .mcap or .bag (a directory with several inputs)")
+                   help=".npz, .csv, .mcap, or no extension: a ROS 2 bag directory (with several inputs: a directory of results)")
     p.add_argument("--format", choices=FORMATS, help="the kind of OUTPUT (default: its extension)")
     p.add_argument("--input-format", choices=("csv", "npy", "jsonl", "parquet"), help="format of INPUT")
     p.add_argument("--interpolation", choices=INTERPOLATIONS, default="spline")
@@ -77,7 +77,7 @@ def output_kind(path: str, given: str | None) -> str:
     if given:
         return given
     suffix = Path(path).suffix.lower().lstrip(".")
-    return suffix if suffix in FORMATS else "npz"
+    return "bag" if not suffix else suffix if suffix in FORMATS else "npz"
 
 
 def write(kind: str, dest: str, ans) -> None:
