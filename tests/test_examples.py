@@ -179,3 +179,11 @@ def test_example_12_collision_free():
     assert "plain answer free: False" in out and "with avoid_collisions: success True free True" in out
     assert "stopped {'index': 43, 'reason': 'collision'}" in out
     assert re.search(r"workspace: \d+ free samples kept, [1-9]\d* in self-collision dropped", out)
+
+
+def test_example_13_trajectory():
+    out = run_example("13_trajectory.py")
+    for label in ("time-optimal:", "jerk-limited:"):
+        ratio = float(re.search(r"largest limit ratio at 1 kHz, " + re.escape(label) + r"\s*([0-9.]+)", out).group(1))
+        assert 0.9 < ratio <= 1.0
+    assert "at rest at both ends: True" in out
