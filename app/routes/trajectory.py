@@ -14,7 +14,7 @@ from kinematics import usecases
 from ..adapter import budget, error_responses, execute, names_headers, npy_response_doc, read_request, request_body_doc
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..responses import FastJSONResponse, NpzResponse
-from ..schemas import TRAJECTORY_EXAMPLES, TrajectoryRequest
+from ..schemas import TRAJECTORY_EXAMPLES, TrajectoryRequest, TrajectoryResponse
 from ..settings import Settings
 
 router = APIRouter(tags=["timing"], dependencies=[Depends(require_read_key)])
@@ -27,7 +27,7 @@ async def read_trajectory_request(request: Request, settings: SettingsDep) -> Tr
 
 
 @router.post(
-    "/models/{model_id}/trajectory",
+    "/models/{model_id}/trajectory", response_model=TrajectoryResponse,
     responses={200: npy_response_doc("t (K,), q, qd, qdd (K, dof), duration (0-d)", "application/x-npz"),
                **error_responses({413: "a rate or a sample count over the service's limits",
                                   422: "invalid waypoints or limits, or a path leaving the joint limits",

@@ -64,7 +64,8 @@ class Sampling:
                               budget="trajectory-rate", field="rate", limit=int(min(self.max_rate, MAX_RATE)))
         n = int(np.floor(duration * rate)) + 2
         if self.max_samples is not None and n > self.max_samples:
-            raise BudgetError(f"the trajectory would have {n} samples ({duration:.6g} s at {rate:g} Hz); the limit "
+            count = f"{n}" if n < 10**15 else f"{float(n):.3g}"
+            raise BudgetError(f"the trajectory would have {count} samples ({duration:.6g} s at {rate:g} Hz); the limit "
                               f"(trajectory_max_samples) is {self.max_samples}: lower the rate",
                               budget="trajectory-samples", field="rate", limit=self.max_samples)
 

@@ -37,7 +37,9 @@ FRACTIONS = (0.3, 0.45, 0.6, 0.75, 0.9)
 WIDTHS = (0.5, 0.75, 1.0, 1.5)
 #: the sampled ratios are held below ``1 - JERK_MARGIN`` (the motion between samples)
 JERK_MARGIN = 2e-3
-#: uniform samples of the filtered motion when computing its time scale (its breakpoints are added)
+#: uniform samples of the filtered motion when computing its time scale (its breakpoints are added):
+#: fewer while comparing the candidates, more for the one kept
+SEARCH_SAMPLES = 4000
 DENSE_SAMPLES = 20000
 
 
@@ -86,9 +88,9 @@ def extended(p: Profile, t: np.ndarray):
 
 
 def required_scale(path: PiecewisePath, f: FilteredProfile, velocity, acceleration, jerk,
-                   tool: ToolRate | None) -> float:
+                   tool: ToolRate | None, samples: int = DENSE_SAMPLES) -> float:
     """The time scale ``k`` that brings the sampled motion of ``f`` to its tightest limit."""
-    t = np.unique(np.r_[np.linspace(0.0, f.duration, DENSE_SAMPLES), f.breakpoints(),
+    t = np.unique(np.r_[np.linspace(0.0, f.duration, samples), f.breakpoints(),
                         np.maximum(f.breakpoints() - 1e-9 * f.duration, 0.0)])
     t = t[t <= f.duration]
     s, sd, sdd, sddd = f.at(t)
@@ -112,8 +114,10 @@ def jerk_limited(path: PiecewisePath, velocity, acceleration, jerk, n: int = 100
         unit = float(np.max(2 * fraction * acceleration / jerk))
         for width in WIDTHS:
             f = FilteredProfile(base, unit * width)
-            k = required_scale(path, f, velocity, acceleration, jerk, tool)
+            k = required_scale(path, f, velocity, acceleration, jerk, tool, SEARCH_SAMPLES)
             f = FilteredProfile(base, unit * width, k)
             if best is None or f.duration < best.duration:
                 best = f
-    return best
+    check()
+    unscaled = FilteredProfile(best.base, best.tau)
+    return FilteredProfile(best.base, best.tau, required_scale(path, unscaled, velocity, acceleration, jerk, tool))

@@ -64,7 +64,7 @@ class PiecewisePath:
         """(K, dof): the ``order``-th derivative of q with respect to s at ``s`` (K,)."""
         s = np.asarray(s, dtype=float)
         p = self.piece(s)
-        return poly_eval(self.coeffs[p], (s - self.breaks[p])[:, None], order)
+        return poly_eval(poly_derivative(self.coeffs, order)[p], (s - self.breaks[p])[:, None])
 
     def q(self, s: np.ndarray) -> np.ndarray:
         return self.derivative(s, 0)

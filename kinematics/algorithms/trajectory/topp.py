@@ -113,7 +113,7 @@ def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.n
 
 def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
     """(N,) the largest ``x`` on each interval that keeps every ``|q'| sdot`` within ``v``."""
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):
         return np.minimum(np.min(np.where(qp_max > 0, (v / qp_max) ** 2, np.inf), axis=1), X_CAP)
 
 
@@ -124,7 +124,7 @@ def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate) -> np.ndarray
     frac = np.linspace(0.0, 1.0, k + 1)
     ss = (s[:-1, None] + np.diff(s)[:, None] * frac).ravel()
     w = tool.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s) - 1, k + 1).max(axis=1) * tool.inflate
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):
         return np.minimum(np.where(w > 0, (tool.max / w) ** 2, np.inf), X_CAP)
 
 
