@@ -130,3 +130,16 @@ def test_planning_over_the_time_budget_503(make_client):
                       "limits": {"acceleration": 2.0, "jerk": 20.0}, "rate": 10})
     assert r.status_code == 503, r.text[:300]
     assert r.json()["type"].endswith("time-budget-exceeded")
+
+
+@pytest.mark.parametrize("jerk", [None, 30.0])
+def test_tool_speed_held_judged_from_fk_of_the_returned_q(api_client, ur5, jerk):
+    from kinematics import fk
+
+    limits = {"acceleration": 3.0, "jerk": jerk, "tool_speed": {"link": "tool0", "max": 0.3}}
+    body = post(api_client, {**BODY, "limits": limits}).json()
+    q = np.array(body["q"])[:-1]
+    p = fk(ur5, q, links=["tool0"]).poses[:, 0, :3, 3]
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) * BODY["rate"]
+    assert speed.max() <= 0.3 * (1 + SLACK)
+    assert speed.max() > 0.29  # the tool speed is what limits this path
