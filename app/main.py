@@ -36,7 +36,7 @@ log = logging.getLogger("app")
 
 #: modules of app.routes whose ``router`` is included, in order (missing optional ones are skipped)
 ROUTERS = ("health", "metrics", "models", "kinematics", "ik", "ik_all", "velocity", "workspace", "symbolic",
-           "calibration", "collision", "visual", "viewer")
+           "calibration", "collision", "visual", "viewer", "trajectory")
 OPTIONAL_ROUTERS = frozenset({"viewer"})
 DESCRIPTION = """Forward kinematics, Jacobians and inverse kinematics of robots (URDF or Denavit-Hartenberg),
 computed with product-of-exponentials and cross-checked against Pinocchio on request (`verify: true`).

@@ -98,6 +98,9 @@ class Settings(BaseSettings):
                                    description="random configurations behind a model's allowed-collision matrix")
     max_workspace_samples: int = Field(default=1_000_000, gt=0,
                                        description="most configurations one workspace request may sample")
+    trajectory_max_rate: float = Field(default=100_000.0, gt=0, le=100_000,
+                                       description="largest sampling rate of a trajectory, Hz (over it: 413)")
+    trajectory_max_samples: int = Field(default=1_000_000, gt=0, description="most samples of one trajectory answer")
     symbolic_timeout: float = Field(default=30.0, gt=0, le=3600,
                                     description="most seconds one closed-form (symbolic) request may take; its "
                                                 "derivation runs in a worker process that is stopped then")

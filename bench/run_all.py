@@ -26,7 +26,7 @@ import time
 from .common import Report, machine_info
 
 SUITES = ("kernels", "scaling", "service", "ik", "ik-all", "logs", "floating", "load", "calibration", "single", "collision",
-          "ik-general")
+          "ik-general", "trajectory")
 #: the suites run when --only is not given
 DEFAULT_SUITES = ("kernels", "scaling", "service")
 #: suites whose tables are written to their own file, beside --output (not into it)
@@ -34,7 +34,7 @@ SEPARATE_OUTPUT = {"ik": "RESULTS_IK.md", "logs": "RESULTS_LOGS.md", "floating":
                    "load": "RESULTS_LOAD.md", "calibration": "RESULTS_CALIBRATION.md",
                    "single": "RESULTS_SINGLE.md",
                    "collision": "RESULTS_COLLISION.md", "ik-all": "RESULTS_IK_ALL.md",
-                   "ik-general": "RESULTS_IK_GENERAL.md"}
+                   "ik-general": "RESULTS_IK_GENERAL.md", "trajectory": "RESULTS_TRAJECTORY.md"}
 #: In the --output file, everything from this line on is kept when the tables are rewritten.
 NOTES_MARKER = "<!-- notes: kept by run_all -->"
 

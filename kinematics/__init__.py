@@ -27,6 +27,7 @@ from .usecases import (Budget, CollisionAnswer, CollisionAvoidance, IKOptions, I
                        collision_matrix, fk, ik, ik_all, ik_family, ik_path, jacobian, joint_batch, load_model,
                        symbolic, symbolic_dh, task, velocity, warm_up, workspace)
 from .usecases import UserPairs
+from .usecases.trajectory import ToolSpeed, TrajectoryLimits, trajectory
 from .engine.parallel import set_threads, thread_count, threads
 from .engine.poe import PoEModel, compile_model
 from .engine.single import fk_function, jacobian_function
@@ -57,7 +58,7 @@ __all__ = [
     "ik", "jacobian", "joint_batch", "load_model", "symbolic", "symbolic_dh", "task", "velocity", "warm_up",
     "workspace", "CollisionAnswer", "IKAllAnswer", "calibrate", "calibration_poses", "collision", "collision_free",
     "collision_matrix", "ik_all", "ik_family", "ik_path", "CollisionAvoidance", "IKOptions", "IKSettings", "SolutionSet",
-    "UserPairs",
+    "UserPairs", "ToolSpeed", "TrajectoryLimits", "trajectory",
     "PoEModel", "compile_model", "set_threads", "thread_count", "threads", "fk_function",
     "jacobian_function", "BasePoseError", "BudgetError", "DHError", "JointValueError", "KinematicsError",
     "LimitError", "NoDHFormError", "ReferenceUnavailableError", "UnknownLinkError", "UnknownModelError",

@@ -210,3 +210,11 @@ def test_example_15_redundancy():
     assert "generating configuration listed: True" in out
     assert deviation(out, "worst error:") < 1e-9
     assert re.search(r"best margin at q7 = 0\.69", out)
+
+
+def test_example_16_trajectory():
+    out = run_example("16_trajectory.py")
+    for label in ("time-optimal:", "jerk-limited:"):
+        ratio = float(re.search(r"largest limit ratio at 1 kHz, " + re.escape(label) + r"\s*([0-9.]+)", out).group(1))
+        assert 0.9 < ratio <= 1.0
+    assert "at rest at both ends: True" in out

@@ -22,6 +22,7 @@ from .ik_all import *  # noqa: F403
 from .jacobian import *  # noqa: F403
 from .models import *  # noqa: F403
 from .symbolic import *  # noqa: F403
+from .trajectory import *  # noqa: F403
 from .velocity import *  # noqa: F403
 from .workspace import *  # noqa: F403
 from .fk import FKRequest
@@ -34,9 +35,10 @@ from .velocity import VelocityRequest
 from .workspace import WorkspaceRequest
 from .calibration import CalibrationPosesRequest, CalibrationRequest
 from .collision import CollisionRequest
+from .trajectory import TrajectoryRequest
 
 #: the request schemas whose JSON Schema the OpenAPI document lists (bodies some handlers read themselves)
 REQUEST_SCHEMAS: tuple[type[BaseModel], ...] = (FKRequest, JacobianRequest, IKRequest, IKPathRequest, VelocityRequest,
                                                 WorkspaceRequest, URDFUpload, DHTable, PoEDescriptionIn,
                                                 AxesDescriptionIn, CalibrationRequest, CalibrationPosesRequest,
-                                                CollisionRequest, Problem)
+                                                CollisionRequest, TrajectoryRequest, Problem)

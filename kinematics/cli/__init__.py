@@ -21,7 +21,7 @@ from ..errors import KinematicsError
 
 #: sub-command modules, in the order their commands appear in ``--help``
 COMMAND_MODULES = ("check", "dh", "pipeline", "ik", "ik_path", "velocity", "workspace", "symbolic", "calibrate",
-                   "collision", "warm_up")
+                   "collision", "warm_up", "trajectory")
 #: entry-point group of commands that other packages add
 PLUGIN_GROUP = "kinematics.commands"
 

@@ -6,7 +6,7 @@ arguments: :func:`fk` ``(query, q)``, :func:`jacobian` ``(query, q, reference=..
 :func:`velocity` ``(query, q, qdot)``, :func:`ik` ``(query, target, ...)`` (every solution: ``solutions="all"``,
 :func:`ik_all`; :func:`ik_family`, :func:`ik_path`), :func:`workspace`
 ``(query, samples=...)``, :func:`task` ``(query, q, representation=...)``, :func:`calibrate`
-``(query, measurements, ...)`` and :func:`calibration_poses` ``(query, n, ...)``; closed forms
+``(query, measurements, ...)`` and :func:`calibration_poses` ``(query, n, ...)``, :func:`trajectory` ``(query, waypoints, limits, ...)``; closed forms
 (:func:`symbolic`, :func:`symbolic_dh`) and models (:func:`load_model`, :func:`model_from_description`,
 ...) take what they need. The answers are plain objects of numpy arrays; turning them into JSON or
 ``.npy`` is the caller's business.
@@ -39,6 +39,7 @@ from .query import (LIMIT_POLICIES, UNBOUNDED, Answer, Budget, Query, Verificati
 from .symbolic import (DEFAULT_SYMBOLIC_TIMEOUT, SYMBOLIC_FORMATS, SYMBOLIC_WHAT, SymbolicAnswer, symbolic,
                        symbolic_dh)
 from .task import TaskAnswer, task
+from .trajectory import Sampling, ToolSpeed, TrajectoryAnswer, TrajectoryError, TrajectoryLimits, trajectory
 from .velocity import VelocityAnswer, velocity
 from .visual import visual_geometry, visual_mesh
 from .warm import warm_up
@@ -53,5 +54,6 @@ __all__ = [
     "Verification", "joint_batch", "model_for", "resolve_links", "DEFAULT_SYMBOLIC_TIMEOUT", "SYMBOLIC_FORMATS",
     "SYMBOLIC_WHAT", "SymbolicAnswer", "symbolic", "symbolic_dh", "TaskAnswer", "task", "VelocityAnswer", "velocity",
     "workspace", "CollisionAnswer", "collision", "collision_free", "collision_matrix", "UserPairs",
-    "visual_geometry", "visual_mesh",
+    "visual_geometry", "visual_mesh", "Sampling", "ToolSpeed", "TrajectoryAnswer", "TrajectoryError",
+    "TrajectoryLimits", "trajectory",
 ]

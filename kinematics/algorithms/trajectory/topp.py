@@ -1,0 +1,194 @@
+"""Time-optimal parameterisation of a path under velocity and acceleration limits (and a tool's
+linear speed), safe at every instant, by reachability analysis on the path parameter.
+
+The unknowns are ``x = sdot^2`` at grid points ``s_0 < ... < s_N`` (the path's breakpoints among
+them) and ``u = sddot``, constant on each interval, so that ``x`` is linear in ``s`` there:
+``x(s) = x_i + 2 u_i (s - s_i)`` (the profile TOPP-RA computes). On interval ``i`` a joint's
+acceleration is ``q' u + q'' x(s) = u A(s) + x_i B(s)`` with ``A(s) = q'(s) + 2 (s - s_i) q''(s)``
+and ``B = q''``: linear in ``(x_i, u_i)`` with coefficients that are polynomials of the path.
+Bounding ``A`` and ``B`` exactly over the interval (:func:`~.path.poly_range`) turns "the limit
+holds at every ``s`` of the interval" into four linear rows per joint that are sufficient
+(``max(u A_lo, u A_hi) + x_i B_hi <= a`` and the like below), so every instant is covered, not
+only the grid points. The velocity limit ``|q'(s)| sdot <= v`` holds on the interval when it
+holds at both ends with ``max |q'|`` over the interval (``x`` is linear, so its largest value is
+at an end). The tool speed ``|J_v(q(s)) q'(s)| sdot <= v_tool`` is bounded the same way with the
+largest tool rate over sub-samples of the interval, tightened by a factor (the caller checks the
+result and tightens further if needed).
+
+Then, as TOPP-RA: a backward pass computes the controllable sets ``[0, X_i]`` (the largest
+``x_i`` from which the end is reached at rest; each step a two-variable linear programme solved
+exactly over its vertices), a forward pass takes the largest ``u_i`` that keeps ``x_{i+1}``
+controllable. The time of interval ``i`` is ``2 (s_{i+1} - s_i) / (sqrt(x_i) + sqrt(x_{i+1}))``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ...engine.cancel import check
+from .passes import backward_steps, forward_steps
+from .path import PiecewisePath, poly_derivative, poly_eval, poly_range
+
+#: The limits are scaled by ``1 - LIMIT_MARGIN`` inside the planner, so that rounding never
+#: takes an answer over them.
+LIMIT_MARGIN = 1e-6
+#: Largest ``sdot^2`` where nothing limits it (a piece of the path that does not move).
+X_CAP = 1e12
+#: Grid steps between two checks of the time budget.
+CHECK_EVERY = 512
+
+
+@dataclass(frozen=True)
+class ToolRate:
+    """The tool's linear speed per unit path speed: ``rate(Q (K, dof), Qp (K, dof)) -> (K,)``,
+    ``|J_v(q) q'|``, and its limit ``max`` (m/s); ``inflate`` multiplies the bound of each interval."""
+
+    rate: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    max: float
+    inflate: float = 1.001
+    subsamples: int = 4
+
+
+@dataclass(frozen=True, eq=False)
+class Profile:
+    """A path-parameter profile: grid ``s`` (N + 1), ``x = sdot^2`` (N + 1), ``u = sddot`` (N) on each
+    interval, ``t`` (N + 1) the times of the grid points."""
+
+    s: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    t: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(s, sdot, sddot)`` at times ``t`` (clipped to ``[0, duration]``)."""
+        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        i = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.u) - 1)
+        tau = t - self.t[i]
+        sd0 = np.sqrt(self.x[i])
+        s = np.minimum(self.s[i] + sd0 * tau + 0.5 * self.u[i] * tau**2, self.s[i + 1])
+        return s, np.maximum(sd0 + self.u[i] * tau, 0.0), self.u[i]
+
+
+def grid(path: PiecewisePath, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(s (N + 1,), piece (N,))``: about ``n`` intervals spread over the path by length, each piece
+    of the path cut into at least one; ``piece[i]`` is the piece interval ``i`` lies in."""
+    lengths = np.diff(path.breaks)
+    total = lengths.sum()
+    counts = np.maximum(1, np.ceil(n * lengths / total).astype(int)) if total > 0 else np.ones(len(lengths), int)
+    s = [np.linspace(path.breaks[p], path.breaks[p + 1], c + 1)[:-1] for p, c in enumerate(counts)]
+    return np.r_[np.concatenate(s), path.breaks[-1]], np.repeat(np.arange(len(lengths)), counts)
+
+
+def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.ndarray):
+    """The linear rows ``cu u + cx x_i <= r`` (each (N, 4 dof)) that keep every joint's acceleration
+    within ``a`` over each whole interval, and ``max |q'|`` (N, dof) over each interval."""
+    c = path.coeffs[piece]  # (N, D + 1, dof)
+    t0 = (s[:-1] - path.breaks[piece])[:, None]
+    t1 = (s[1:] - path.breaks[piece])[:, None]
+    c1 = poly_derivative(c, 1)
+    c2 = poly_derivative(c, 2)
+    lo1, hi1 = poly_range(c1, t0, t1)
+    # A(t) = q'(t) + 2 (t - t0) q''(t), in the piece's local coordinate t
+    shifted = np.zeros(c1.shape[:1] + (c2.shape[1] + 1,) + c1.shape[2:])
+    shifted[:, 1:] += 2 * c2
+    shifted[:, :-1] -= 2 * t0[:, :, None] * c2
+    width = max(c1.shape[1], shifted.shape[1])
+    A = np.zeros((len(c), width, c.shape[2]))
+    A[:, :c1.shape[1]] += c1
+    A[:, :shifted.shape[1]] += shifted
+    Alo, Ahi = poly_range(A, t0, t1)
+    Blo, Bhi = poly_range(c2, t0, t1)
+    cu = np.concatenate([Ahi, Alo, -Alo, -Ahi], axis=1)
+    cx = np.concatenate([Bhi, Bhi, -Blo, -Blo], axis=1)
+    r = np.tile(a, 4)[None].repeat(len(c), axis=0)
+    return cu, cx, r, np.maximum(np.abs(lo1), np.abs(hi1))
+
+
+def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(N,) the largest ``x`` on each interval that keeps every ``|q'| sdot`` within ``v``."""
+    with np.errstate(divide="ignore", over="ignore"):
+        return np.minimum(np.min(np.where(qp_max > 0, (v / qp_max) ** 2, np.inf), axis=1), X_CAP)
+
+
+def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate) -> np.ndarray:
+    """(N,) the largest ``x`` on each interval that keeps the tool's speed within its limit (sampled
+    at ``tool.subsamples + 1`` points of each interval, the largest rate inflated)."""
+    k = tool.subsamples
+    frac = np.linspace(0.0, 1.0, k + 1)
+    ss = (s[:-1, None] + np.diff(s)[:, None] * frac).ravel()
+    w = tool.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s) - 1, k + 1).max(axis=1) * tool.inflate
+    with np.errstate(divide="ignore", over="ignore"):
+        return np.minimum(np.where(w > 0, (tool.max / w) ** 2, np.inf), X_CAP)
+
+
+def backward(cu, cx, r, xmax, ds) -> np.ndarray:
+    """(N + 1,) the largest controllable ``x_i``: ``X_N = 0``; ``X_i`` the largest ``x`` in ``[0, xmax_i]``
+    with a ``u`` that meets interval i's rows and reaches ``x + 2 ds_i u`` in ``[0, X_{i+1}]``
+    (each step a two-variable linear programme, solved over its vertices)."""
+    N = len(ds)
+    X = np.zeros(N + 1)
+    for stop in range(N, 0, -CHECK_EVERY):
+        check()
+        backward_steps(cu, cx, r, xmax, ds, X, stop, max(0, stop - CHECK_EVERY))
+    return X
+
+
+def forward(cu, cx, r, X, ds) -> tuple[np.ndarray, np.ndarray]:
+    """``(x (N + 1), u (N))``: from rest, the largest ``u_i`` that meets interval i's rows and keeps
+    ``x_{i+1}`` in ``[0, X_{i+1}]``."""
+    N = len(ds)
+    x = np.zeros(N + 1)
+    u = np.zeros(N)
+    for start in range(0, N, CHECK_EVERY):
+        check()
+        forward_steps(cu, cx, r, X, ds, x, u, start, min(N, start + CHECK_EVERY))
+    return x, u
+
+
+def times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(N + 1,) the time at each grid point of a profile linear in ``x`` on each interval."""
+    root = np.sqrt(np.maximum(x, 0.0))
+    den = root[:-1] + root[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dt = np.where(den > 0, 2 * np.diff(s) / den, 0.0)
+    return np.r_[0.0, np.cumsum(dt)]
+
+
+def topp(path: PiecewisePath, velocity: np.ndarray, acceleration: np.ndarray, n: int = 2000,
+         tool: ToolRate | None = None) -> Profile:
+    """The time-optimal profile of ``path`` (one piece: from rest to rest) on about ``n`` grid
+    intervals under per-joint ``velocity`` and ``acceleration`` limits (and ``tool``'s speed),
+    every limit held at every instant."""
+    scale = 1.0 - LIMIT_MARGIN
+    s, piece = grid(path, n)
+    ds = np.diff(s)
+    cu, cx, r, qp_max = interval_rows(path, s, piece, np.asarray(acceleration, float) * scale)
+    xint = velocity_bound(qp_max, np.asarray(velocity, float) * scale)
+    if tool is not None:
+        xint = np.minimum(xint, tool_bound(path, s, ToolRate(tool.rate, tool.max * scale, tool.inflate,
+                                                             tool.subsamples)))
+    xmax = np.minimum(np.r_[xint, xint[-1]], np.r_[xint[0], xint])  # both neighbouring intervals
+    X = backward(cu, cx, r, xmax, ds)
+    x, u = forward(cu, cx, r, X, ds)
+    return Profile(s, x, u, times(s, x))
+
+
+def joint_motion(path: PiecewisePath, s, sd, sdd, sddd=None):
+    """``(q, qd, qdd[, qddd])`` (K, dof) along ``path`` for path-parameter values and their time derivatives."""
+    q1 = path.derivative(s, 1)
+    q2 = path.derivative(s, 2)
+    sd, sdd = np.asarray(sd)[:, None], np.asarray(sdd)[:, None]
+    out = [path.q(s), q1 * sd, q2 * sd**2 + q1 * sdd]
+    if sddd is not None:
+        out.append(path.derivative(s, 3) * sd**3 + 3 * q2 * sd * sdd + q1 * np.asarray(sddd)[:, None])
+    return tuple(out)
+
+
+__all__ = ["LIMIT_MARGIN", "Profile", "ToolRate", "topp", "joint_motion", "grid", "poly_eval"]

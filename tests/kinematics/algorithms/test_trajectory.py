@@ -1,0 +1,201 @@
+"""Paths and time parameterisation of trajectories (kinematics.algorithms.trajectory): the spline
+equals SciPy's, the blended path keeps its promises, every limit holds at every instant (exact
+derivatives on a dense grid, finite differences of q at 1 kHz), the motion stays on the path,
+starts and ends at rest, and is as short as TOPP-RA's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinematics.algorithms.trajectory.jerk import jerk_limited
+from kinematics.algorithms.trajectory.path import linear_path, poly_range, spline_path
+from kinematics.algorithms.trajectory.plan import plan, sample_times
+from kinematics.algorithms.trajectory.topp import ToolRate, joint_motion, topp
+
+RNG_SEED = 7
+V = np.array([2.0, 1.5, 2.5, 3.0, 3.0, 3.5])
+A = np.array([5.0, 4.0, 6.0, 8.0, 8.0, 10.0])
+J = np.array([50.0, 40.0, 60.0, 80.0, 80.0, 100.0])
+#: relative slack of the checks: rounding of the finite differences of q
+SLACK = 1e-7
+
+
+def waypoints(m: int, dof: int = 6, seed: int = RNG_SEED) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(-2.0, 2.0, (m, dof))
+
+
+def finite_difference_ratios(q: np.ndarray, h: float, limits) -> list[float]:
+    """Largest |k-th difference| / h^k / limit of q sampled every h (k = 1, 2, 3 for the limits given)."""
+    return [float(np.max(np.abs(np.diff(q, k, axis=0)) / h**k / lim)) for k, lim in enumerate(limits, start=1)]
+
+
+@pytest.mark.parametrize("m", [2, 3, 4, 5, 9])
+def test_spline_equals_scipy(m):
+    interpolate = pytest.importorskip("scipy.interpolate")
+    W = waypoints(m)
+    path = spline_path(W)
+    ref = interpolate.CubicSpline(np.linspace(0, 1, m), W)
+    s = np.linspace(0, 1, 777)
+    for order in range(4):
+        np.testing.assert_allclose(path.derivative(s, order), ref(s, order), atol=1e-9 * 10**order)
+
+
+def test_poly_range_is_exact():
+    rng = np.random.default_rng(1)
+    c = rng.normal(size=(50, 4, 3))
+    t1 = rng.uniform(0.1, 2.0, (50, 1))
+    lo, hi = poly_range(c, np.zeros_like(t1), t1)
+    t = np.linspace(0, 1, 20001)[None, :, None] * t1[:, :, None]  # (50, K, 1)
+    v = sum(c[:, None, k, :] * t**k for k in range(4))
+    np.testing.assert_allclose(lo, v.min(axis=1), atol=1e-7)
+    np.testing.assert_allclose(hi, v.max(axis=1), atol=1e-7)
+    assert np.all(lo <= v.min(axis=1) + 1e-12) and np.all(hi >= v.max(axis=1) - 1e-12)
+
+
+def test_linear_blends_keep_their_promises():
+    W = waypoints(6)
+    blend = 0.4
+    path = linear_path(W, blend)
+    s = np.linspace(0, path.breaks[-1], 200001)
+    q = path.q(s)
+    dist = np.linalg.norm(q[:, None, :] - W[None, 1:-1, :], axis=2).min(axis=1)
+    far = dist > blend + 1e-12
+    # far from every inner corner the point lies on a straight segment between consecutive waypoints
+    seg = W[1:] - W[:-1]
+    on_segment = np.zeros(len(s), bool)
+    for a, d in zip(W[:-1], seg):
+        lam = np.clip(((q - a) @ d) / (d @ d), 0, 1)
+        on_segment |= np.linalg.norm(q - (a + lam[:, None] * d), axis=1) < 1e-9
+    assert on_segment[far].all()
+    assert not on_segment.all()  # the corners are cut
+    # C2 at every breakpoint
+    b = path.breaks[1:-1]
+    for order in range(3):
+        np.testing.assert_allclose(path.derivative(b - 1e-13, order), path.derivative(b + 1e-13, order), atol=1e-9)
+    assert path.stops == ()
+    assert linear_path(W, 0.0).stops == tuple(np.r_[0.0, np.cumsum(np.linalg.norm(seg, axis=1))][1:-1])
+
+
+def check_motion(timing, path, v, a, j=None, rate=1000.0):
+    """Every limit at 1 kHz (exact derivatives and finite differences of q), on the path, at rest at both ends."""
+    t = sample_times(timing.duration, rate)
+    q, qd, qdd, qddd = timing.sample(t)
+    assert np.max(np.abs(qd) / v) <= 1 + SLACK
+    assert np.max(np.abs(qdd) / a) <= 1 + SLACK
+    uniform = t[:-1]  # the last step may be shorter
+    ratios = finite_difference_ratios(q[:len(uniform)], 1 / rate, [v, a] + ([j] if j is not None else []))
+    assert max(ratios) <= 1 + SLACK, ratios
+    if j is not None:
+        assert np.max(np.abs(qddd) / j) <= 1 + SLACK
+    np.testing.assert_allclose(q[0], path.q(np.array([path.breaks[0]]))[0], atol=1e-12)
+    np.testing.assert_allclose(q[-1], path.q(np.array([path.breaks[-1]]))[0], atol=1e-9)
+    assert np.abs(qd[[0, -1]]).max() < 1e-6
+    return t, q, qd, qdd, qddd
+
+
+def dense_limits(prof, path, v, a, n=400001):
+    tt = np.linspace(0, prof.duration, n)
+    s, sd, sdd = prof.at(tt)
+    _, qd, qdd = joint_motion(path, s, sd, sdd)
+    return np.max(np.abs(qd) / v), np.max(np.abs(qdd) / a)
+
+
+@pytest.mark.parametrize("m", [2, 4, 7])
+def test_time_optimal_spline_holds_limits_everywhere(m):
+    path = spline_path(waypoints(m))
+    timing = plan(path, V, A)
+    check_motion(timing, path, V, A)
+    rv, ra = dense_limits(timing.parts[0][1], path, V, A)
+    assert rv <= 1 and ra <= 1
+    assert max(rv, ra) > 0.999  # some limit is reached: not a slow, trivially safe answer
+
+
+def test_coarse_grid_is_still_safe_between_grid_points():
+    path = spline_path(waypoints(5))
+    prof = topp(path, V, A, n=20)  # 20 intervals: the constraints are bounded over each whole interval
+    rv, ra = dense_limits(prof, path, V, A)
+    assert rv <= 1 and ra <= 1
+
+
+def test_motion_stays_on_the_path():
+    path = spline_path(waypoints(5))
+    timing = plan(path, V, A)
+    prof = timing.parts[0][1]
+    t = np.linspace(0, timing.duration, 1001)
+    s, sd, _ = prof.at(t)
+    q = timing.sample(t)[0]
+    np.testing.assert_allclose(q, path.q(s), atol=1e-12)
+    assert np.all(np.diff(s) >= 0) and s[0] == 0 and abs(s[-1] - 1) < 1e-9
+
+
+def test_linear_without_blend_stops_at_each_corner():
+    W = waypoints(4)
+    path = linear_path(W, 0.0)
+    timing = plan(path, V, A)
+    assert len(timing.parts) == 3
+    q, qd, _, _ = timing.sample(timing.starts)
+    np.testing.assert_allclose(q, W[:3], atol=1e-9)
+    assert np.abs(qd).max() < 1e-9
+    check_motion(timing, path, V, A)
+
+
+def test_tool_speed_is_held():
+    # a "tool" whose speed is |M q'| for a fixed matrix: the bound must hold at every sample
+    Mx = np.random.default_rng(3).normal(size=(3, 6))
+    tool = ToolRate(lambda Q, Qp: np.linalg.norm(Qp @ Mx.T, axis=1), 0.5)
+    path = spline_path(waypoints(4))
+    timing = plan(path, V, A, tool=tool)
+    free = plan(path, V, A)
+    t = np.linspace(0, timing.duration, 100001)
+    _, qd, _, _ = timing.sample(t)
+    speed = np.linalg.norm(qd @ Mx.T, axis=1)
+    assert speed.max() <= 0.5 * (1 + SLACK)
+    assert speed.max() > 0.49 and timing.duration > free.duration
+
+
+@pytest.mark.parametrize("kind", ["spline", "linear"])
+def test_jerk_limited(kind):
+    W = waypoints(5)
+    path = spline_path(W) if kind == "spline" else linear_path(W, 0.3)
+    timing = plan(path, V, A, J)
+    t, q, qd, qdd, qddd = check_motion(timing, path, V, A, J)
+    assert np.abs(qdd[[0, -1]]).max() < 1e-9  # zero acceleration at both ends
+    # continuous acceleration: on a fine grid its steps shrink with the step (no jump)
+    tt = np.linspace(0, timing.duration, 200001)
+    qdd_fine = timing.sample(tt)[2]
+    assert np.max(np.abs(np.diff(qdd_fine, axis=0))) <= np.max(J) * (tt[1] - tt[0]) * (1 + 1e-6)
+    optimum = plan(path, V, A).duration
+    assert optimum < timing.duration < 2 * optimum
+
+
+def test_jerk_limited_motion_keeps_the_path():
+    path = spline_path(waypoints(4))
+    prof = jerk_limited(path, V, A, J, n=300)
+    t = np.linspace(0, prof.duration, 3001)
+    s = prof.at(t)[0]
+    assert np.all(np.diff(s) >= -1e-12) and abs(s[0]) < 1e-12 and abs(s[-1] - 1) < 1e-9
+
+
+def test_against_toppra():
+    ta = pytest.importorskip("toppra")
+    from toppra import algorithm, constraint
+
+    ta.setup_logging("WARNING")
+    for seed, m in [(1, 3), (2, 5)]:
+        W = waypoints(m, seed=seed)
+        path = ta.SplineInterpolator(np.linspace(0, 1, m), W)
+        inst = algorithm.TOPPRA([constraint.JointVelocityConstraint(np.c_[-V, V]),
+                                 constraint.JointAccelerationConstraint(np.c_[-A, A])], path,
+                                gridpoints=np.linspace(0, 1, 2001), parametrizer="ParametrizeConstAccel")
+        theirs = inst.compute_trajectory().duration
+        ours = plan(spline_path(W), V, A).duration
+        assert ours <= 1.005 * theirs
+        assert ours >= 0.99 * theirs  # the same problem: not shorter than the optimum by more than its grid error
+
+
+def test_still_path_has_zero_duration():
+    W = np.zeros((3, 6))
+    timing = plan(spline_path(W), V, A)
+    assert timing.duration == 0.0
+    np.testing.assert_array_equal(sample_times(0.0, 100.0), [0.0])
