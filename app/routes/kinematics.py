@@ -17,12 +17,11 @@ import numpy as np
 from fastapi import APIRouter, Depends, Query, Request
 
 from kinematics import usecases
-from kinematics.io.pose_records import pose_output
 from kinematics.spatial.reference import Reference
 
 from ..adapter import (INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, LimitsQuery, LinkQuery, LinksQuery,  # noqa: F401
                        NormalizeQuery, PlainJSONRoute, PointQuery, VerifyQuery, budget, configurations,
-                       error_responses, execute, names_headers, npy_response_doc, one_or_all, parse_point,
+                       error_responses, execute, names_headers, npy_response_doc, parse_point,
                        plain_json, read_request, request_body_doc, split_names, verification_headers)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
 from ..errors import ProblemError
@@ -128,13 +127,7 @@ def _forward_kinematics(model_id: str, req: FKRequest, request: Request, registr
         headers["X-Out-Of-Limits"] = str(answer.out_of_limits_count())
         headers.update(verification_headers(verification))
         return NpyResponse(answer.poses, headers=headers)
-    one = one_or_all(answer.is_batch)
-    return FastJSONResponse({
-        "model": rec.id, "joint_names": list(answer.model.joint_names), "links": answer.links, "format": req.format,
-        "poses": pose_output(answer.poses, answer.links, req.format, answer.is_batch),
-        "out_of_limits": one(answer.out_of_limits()),
-        "verification": verification.as_dict() if verification else None,
-    })
+    return FastJSONResponse(FKResponse.content(rec.id, answer, req.format))
 
 
 @_batch_route("/models/{model_id}/jacobian", JacobianResponse, "(N, 6, dof) float64 Jacobians, linear rows first",
@@ -156,14 +149,6 @@ async def jacobian(model_id: ModelId, req: Annotated[JacobianRequest, Depends(re
     return await _run(_jacobian, model_id, req, request, registry, settings)
 
 
-def _conditioning(answer, one) -> dict:
-    """Singular values, manipulability and condition number (null at a singularity) of an answer's Jacobians."""
-    measures = answer.conditioning()
-    cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
-    return {"singular_values": one(measures["singular_values"]), "manipulability": one(measures["manipulability"].tolist()),
-            "condition_number": one(cond)}
-
-
 def _jacobian(model_id: str, req: JacobianRequest, request: Request, registry, settings: Settings):
     if req.representation is not None or req.components is not None:
         return _analytic_jacobian(model_id, req, request, registry, settings)
@@ -176,11 +161,7 @@ def _jacobian(model_id: str, req: JacobianRequest, request: Request, registry, s
                         "X-Out-Of-Limits": str(answer.out_of_limits_count())})
         headers.update(verification_headers(answer.verification))
         return NpyResponse(answer.jacobians, headers=headers)
-    one = one_or_all(answer.is_batch)
-    return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": answer.reference.value,
-                             "joint_names": list(answer.model.joint_names), "jacobian": one(answer.jacobians),
-                             **_conditioning(answer, one), "out_of_limits": one(answer.out_of_limits()),
-                             "verification": answer.verification.as_dict() if answer.verification else None})
+    return FastJSONResponse(JacobianResponse.content(rec.id, answer))
 
 
 def _analytic_jacobian(model_id: str, req: JacobianRequest, request: Request, registry, settings: Settings):
@@ -199,10 +180,4 @@ def _analytic_jacobian(model_id: str, req: JacobianRequest, request: Request, re
                         "X-Representation": answer.representation.name, "X-Components": ",".join(labels),
                         "X-Out-Of-Limits": str(answer.out_of_limits_count()), **verification_headers(verification)})
         return NpyResponse(np.concatenate([answer.J_r, answer.r[:, :, None]], axis=2), headers=headers)
-    one = one_or_all(answer.is_batch)
-    return FastJSONResponse({"model": rec.id, "link": answer.link, "reference": Reference.LOCAL_WORLD_ALIGNED.value,
-                             "representation": answer.representation.name, "components": labels,
-                             "joint_names": list(rec.model.joint_names), "jacobian": one(answer.J_r),
-                             "r": one(answer.r), **_conditioning(answer, one),
-                             "out_of_limits": one(answer.out_of_limits()),
-                             "verification": verification.as_dict() if verification else None})
+    return FastJSONResponse(JacobianResponse.analytic_content(rec.id, answer))

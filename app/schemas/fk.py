@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Literal, Union
+from typing import Any, Literal, Union
 
 from pydantic import BaseModel, Field
 
-from .common import UR5_HOME, JointsRequest, Matrix, PoseFormat, Quaternion, Vector
+from kinematics.io.pose_records import pose_output
+
+from .common import UR5_HOME, JointsRequest, Matrix, PoseFormat, Quaternion, Vector, one_or_all
 
 class Pose(BaseModel):
     matrix: Matrix = Field(description="T_world_link, 4x4 row-major")
@@ -48,6 +50,19 @@ class FKResponse(BaseModel):
     out_of_limits: Union[list[str], list[list[str]]] = Field(
         description="joints outside their limits (for a batch, one list per configuration)")
     verification: FKVerification | None = None
+
+    @staticmethod
+    def content(model_id: str, answer: Any, format: str) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.FKAnswer` in pose ``format`` (a single configuration
+        unwrapped)."""
+        one = one_or_all(answer.is_batch)
+        verification = answer.verification
+        return {
+            "model": model_id, "joint_names": list(answer.model.joint_names), "links": answer.links, "format": format,
+            "poses": pose_output(answer.poses, answer.links, format, answer.is_batch),
+            "out_of_limits": one(answer.out_of_limits()),
+            "verification": verification.as_dict() if verification else None,
+        }
 
 
 FK_EXAMPLES = {

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Union
+from typing import Any, Union
 
+import numpy as np
 from pydantic import BaseModel, Field, model_validator
 
 from kinematics.spatial.reference import Reference
 
-from .common import UR5_HOME, JointsRequest, Matrix, References, TaskRepresentationName, Vector
+from .common import UR5_HOME, JointsRequest, Matrix, References, TaskRepresentationName, Vector, one_or_all
 
 class JacobianVerification(BaseModel):
     reference: str
@@ -64,6 +65,38 @@ class JacobianResponse(BaseModel):
     representation: str | None = Field(default=None, description="with representation: its name")
     components: list[str] | None = Field(default=None, description="with representation: the rows of jacobian and r")
     r: Union[Vector, list[Vector], None] = Field(default=None, description="with representation: the task vector")
+
+    @staticmethod
+    def content(model_id: str, answer: Any) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.JacobianAnswer` (a single configuration unwrapped)."""
+        one = one_or_all(answer.is_batch)
+        return {"model": model_id, "link": answer.link, "reference": answer.reference.value,
+                "joint_names": list(answer.model.joint_names), "jacobian": one(answer.jacobians),
+                **_conditioning(answer, one), "out_of_limits": one(answer.out_of_limits()),
+                "verification": _verification(answer)}
+
+    @staticmethod
+    def analytic_content(model_id: str, answer: Any) -> dict[str, Any]:
+        """The JSON answer of a :class:`kinematics.TaskAnswer` given as an analytic Jacobian (``representation``):
+        ``J_r`` in ``jacobian`` and ``r``, built from the local_world_aligned Jacobian (which it names)."""
+        one = one_or_all(answer.is_batch)
+        return {"model": model_id, "link": answer.link, "reference": Reference.LOCAL_WORLD_ALIGNED.value,
+                "representation": answer.representation.name, "components": list(answer.representation.labels),
+                "joint_names": list(answer.model.joint_names), "jacobian": one(answer.J_r),
+                "r": one(answer.r), **_conditioning(answer, one), "out_of_limits": one(answer.out_of_limits()),
+                "verification": _verification(answer)}
+
+
+def _conditioning(answer: Any, one) -> dict[str, Any]:
+    """Singular values, manipulability and condition number (null at a singularity) of an answer's Jacobians."""
+    measures = answer.conditioning()
+    cond = [None if not np.isfinite(c) else float(c) for c in measures["condition_number"]]
+    return {"singular_values": one(measures["singular_values"]), "manipulability": one(measures["manipulability"].tolist()),
+            "condition_number": one(cond)}
+
+
+def _verification(answer: Any) -> dict[str, Any] | None:
+    return answer.verification.as_dict() if answer.verification else None
 
 
 JACOBIAN_EXAMPLES = {

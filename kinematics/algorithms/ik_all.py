@@ -5,8 +5,8 @@ For N targets ``T_world_link`` (or of a ``tool`` on the link), :func:`all_soluti
 
 1. folds the ``locked`` joints into the chain and names its family
    (:mod:`kinematics.algorithms.ik_families`);
-2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, the
-   allocation-free form of :mod:`kinematics.engine.ik_closed`,
+2. finds **candidates**: the compiled closed form of the family (:mod:`kinematics.engine.ik_fast`, on the
+   subproblems of :mod:`kinematics.engine.subproblems`,
    on the *ideal* chain for a robot near a family, e.g. a calibrated UR), the kernels of
    :mod:`kinematics.algorithms.ik_general` (a general 6R, a spherical wrist on a general arm, by the
    16-degree elimination; the planar and RPR short chains and Wen's Rhino arm in closed form), or --
@@ -47,7 +47,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..engine import ik_closed, ik_fast, ik_polish
+from ..engine import ik_fast, ik_polish
 from ..engine.parallel import run_rows
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError
@@ -425,7 +425,7 @@ def _merge(chain, N, rows, owner, targets, more):
     rows = np.concatenate(per) if N else rows
     starts = np.concatenate([[0], np.cumsum([len(r) for r in per])]).astype(np.intp)
     keep = np.zeros(len(rows), bool)
-    ik_closed.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    ik_fast.distinct_rows(rows, np.ones(len(rows), bool), starts, chain.columns, chain.revolute, DUPLICATE, keep)
     return rows[keep], owner[keep]
 
 
@@ -594,7 +594,7 @@ def _accepted(chain, Q, owner, counts, ok, p, r, position_only, position_toleran
     ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
     keep = np.zeros(len(Q), bool)
-    ik_closed.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    ik_fast.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
     return Q[keep], owner[keep], (p[keep], r[keep])
 
 

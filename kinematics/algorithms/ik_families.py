@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..engine import ik_closed, ik_fast
+from ..engine import ik_fast
 from ..engine.compiled import PRISMATIC
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError, LockedJointError, did_you_mean
@@ -213,10 +213,10 @@ class Family:
 
 
 _WRIST_POSITIONS = {
-    ik_closed.POS_PARALLEL_23: ("parallel_23", (4, 3, 1)),
-    ik_closed.POS_INTERSECT_12: ("intersecting_12", (3, 2)),
-    ik_closed.POS_INTERSECT_12_PRISMATIC: ("intersecting_12_prismatic", (2,)),
-    ik_closed.POS_PARALLEL_12: ("parallel_12", (4, 3, 1)),
+    ik_fast.POS_PARALLEL_23: ("parallel_23", (4, 3, 1)),
+    ik_fast.POS_INTERSECT_12: ("intersecting_12", (3, 2)),
+    ik_fast.POS_INTERSECT_12_PRISMATIC: ("intersecting_12_prismatic", (2,)),
+    ik_fast.POS_PARALLEL_12: ("parallel_12", (4, 3, 1)),
 }
 
 
@@ -237,16 +237,16 @@ def _try_forward(ch: Chain, angle: float, distance: float) -> Family | None:
             meet12 = _meet(ch, (0, 1), max(angle, 1e-3))
         par12 = _parallel(ch, (0, 1))
         if ch.revolute[0] and par23 is not None and par23 <= angle and _angle(ch.h[0], ch.h[1]) > 1e-3:
-            position = ik_closed.POS_PARALLEL_23
+            position = ik_fast.POS_PARALLEL_23
             for i, v in _mean_direction(ch, (1, 2)).items():
                 h[i] = v
             devs.append(par23)
         elif meet12 is not None and meet12[1] <= distance:
-            position = ik_closed.POS_INTERSECT_12 if ch.revolute[2] else ik_closed.POS_INTERSECT_12_PRISMATIC
+            position = ik_fast.POS_INTERSECT_12 if ch.revolute[2] else ik_fast.POS_INTERSECT_12_PRISMATIC
             r[0:2] = meet12[0]
             devs.append(meet12[1])
         elif par12 is not None and par12 <= angle and ch.revolute[2] and _angle(ch.h[0], ch.h[2]) > 1e-3:
-            position = ik_closed.POS_PARALLEL_12
+            position = ik_fast.POS_PARALLEL_12
             for i, v in _mean_direction(ch, (0, 1)).items():
                 h[i] = v
             devs.append(par12)

@@ -27,7 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..engine import ik_closed, ik_fast
+from ..engine import ik_fast
 from . import ik_general
 
 #: a bound writer of candidates: ``write(G, width, out, count, flag)`` over one row range of targets
@@ -86,6 +86,6 @@ def _spherical_wrist_search(fam: Any) -> Writer:
 
 register(Kernel("three_parallel", True, ik_fast.FAMILY_CANDIDATES, bind=_three_parallel))
 register(Kernel("spherical_wrist", True, ik_fast.FAMILY_CANDIDATES, bind=_spherical_wrist))
-register(Kernel("spherical_wrist_search", True, ik_closed.MAX_CANDIDATES, bind=_spherical_wrist_search))
+register(Kernel("spherical_wrist_search", True, ik_fast.MAX_CANDIDATES, bind=_spherical_wrist_search))
 for _name in ik_general.KERNELS:
     register(Kernel(_name, False, position=_name in ik_general.POSITION_KERNELS))

@@ -84,8 +84,7 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     problem = IKProblem.of(query, target, seed, options, rest, strategy)
     solution, free = strategy.select(problem)
     verification = None
-    # (a strategy over the full set has answered without verification so far: kept as it was)
-    if problem.query.verify and not strategy.full_set:
+    if problem.query.verify:  # every strategy's answer, checked against its target alike
         reference, position, rotation = problem.pinocchio_errors(solution.q, np.arange(len(problem.T)))
         verification = {"reference": reference, "position_error": position, "rotation_error": rotation}
     return IKAnswer(problem.model, problem.link, options.settings.mode, problem.is_batch, problem.T, solution,
