@@ -75,5 +75,6 @@ def test_a_planned_path_is_timed_played_in_time_and_charted(server, browser):
     assert q == pytest.approx(api["q"][-1], abs=1e-12)
     assert q == pytest.approx(path_q[-1], abs=1e-9)
     assert _js(browser, "window.viewerState.trajectory.t") == api["duration"]
+    browser.execute_script("document.getElementById('traj-chart').scrollIntoView({block: 'end'})")
     _docs_screenshot(browser, "viewer_trajectory.png")
     assert not _severe_console(browser)
