@@ -8,9 +8,9 @@ import httpx
 import numpy as np
 import pytest
 
-from tests.app.test_viewer import (UR5_Q_KNOWN, _docs_screenshot, _enable_ik, _open, _quaternion,  # noqa: F401
-                                   _severe_console, _state, _ur5_fk, _wait, browser, needs_browser, server)
-from tests.app.test_viewer_ghosts import PATH_OFFSET, _ik_to, _js, _settled, _target_of
+from tests.app.test_viewer import (_docs_screenshot, _severe_console, _state, _wait, browser,  # noqa: F401
+                                   needs_browser, server)
+from tests.app.test_viewer_ghosts import _js, _plan_a_path, _settled
 
 try:
     from selenium.webdriver.common.by import By
@@ -20,25 +20,8 @@ except ImportError:  # pragma: no cover - needs_browser skips the tests
 
 @needs_browser
 def test_a_planned_path_is_timed_played_in_time_and_charted(server, browser):
-    _open(browser, f"{server}/viewer/ur5")
-    browser.find_element(By.CSS_SELECTOR, '#link-list option[value="tool0"]').click()
-    _wait(browser, lambda d: _state(d)["selectedLink"] == "tool0", "tool0 selected")
-    _enable_ik(browser)
-    browser.find_element(By.ID, "ghost-enable").click()        # ghosts off: the path alone
-    browser.find_element(By.CSS_SELECTOR, "#path-panel summary").click()
-    # before any path: the page says what is missing and asks nothing
-    browser.find_element(By.ID, "traj-time").click()
-    assert "Plan a Cartesian path first" in browser.find_element(By.ID, "traj-status").text
-    assert _state(browser)["trajectoryRequests"] == 0
-
-    start, quaternion = _target_of(UR5_Q_KNOWN)
-    _ik_to(browser, start, quaternion)
-    browser.find_element(By.ID, "path-add").click()
-    _ik_to(browser, (np.asarray(start) + PATH_OFFSET).tolist(), quaternion)
-    browser.find_element(By.ID, "path-add").click()
-    browser.find_element(By.ID, "path-plan").click()
-    _wait(browser, lambda d: (_js(d, "window.viewerState.path") or {}).get("rows", 0) > 2
-          and _state(d)["pathResponses"] >= 1, "the planned path")
+    _plan_a_path(server, browser)
+    assert _js(browser, "window.viewerState.path.rows") > 2
     path_q = _js(browser, "window.viewerState.path.q")
 
     for field, value in (("traj-velocity", "0.8"), ("traj-acceleration", "1.5")):
@@ -77,4 +60,10 @@ def test_a_planned_path_is_timed_played_in_time_and_charted(server, browser):
     assert _js(browser, "window.viewerState.trajectory.t") == api["duration"]
     browser.execute_script("document.getElementById('traj-chart').scrollIntoView({block: 'end'})")
     _docs_screenshot(browser, "viewer_trajectory.png")
+
+    # without a planned path: the page says what is missing and asks nothing
+    browser.find_element(By.ID, "path-clear").click()
+    browser.find_element(By.ID, "traj-time").click()
+    assert "Plan a Cartesian path first" in browser.find_element(By.ID, "traj-status").text
+    assert _state(browser)["trajectoryRequests"] == 1
     assert not _severe_console(browser)
