@@ -360,6 +360,26 @@ class Client:
                                    "limits": limits}))
         return _arrays(answer, ("r", "J_r"))
 
+    # ------------------------------------------------------------------ trajectories
+    def trajectory(self, model_id: str, waypoints, *, limits: dict[str, Any], npz: bool = False,
+                   **options: Any) -> dict[str, Any]:
+        """A timed trajectory through joint ``waypoints`` ((M, dof), e.g. the ``q`` of :meth:`ik_path`;
+        ``POST .../trajectory``) under ``limits`` (``{"acceleration": ..., "velocity": ..., "jerk": ...,
+        "tool_speed": {"link", "max"}}``, each one number or one per joint); ``options`` as the
+        service's fields (``interpolation``, ``blend``, ``rate``). The answer's ``t`` (K,), ``q``,
+        ``qd``, ``qdd`` (K, dof) are arrays; with ``npz`` only those and ``duration`` (a float),
+        over the binary transport (``method`` and ``joint_names()`` from the headers)."""
+        path = f"/models/{self._id(model_id)}/trajectory"
+        body = _body({"waypoints": waypoints, "limits": limits, **options})
+        if npz:
+            answer: dict[str, Any] = self._npz("POST", path, None, json.dumps(body).encode(), "application/json")
+            answer["duration"] = float(answer["duration"])
+            answer["method"] = self.last_headers.get("x-method")
+            return answer
+        answer = _arrays(self._json("POST", path, body), ("t", "q", "qd", "qdd"))
+        answer["limits"] = _arrays(answer["limits"], ("velocity", "acceleration", "jerk"))
+        return answer
+
     # A new operation follows the pattern above: one method named as the service's path, keyword
     # options as the service's fields (``_body`` drops the unset ones and turns arrays into lists),
     # ``_arrays`` for the array fields of a JSON answer, ``_npz`` where the service answers ``.npz``.

@@ -353,3 +353,88 @@ def _files(dest):
     from .io.parquet import parquet_files
 
     return [pq.ParquetFile(f) for f in parquet_files(dest)]
+
+
+# ---------------------------------------------------------------------- trajectories of many paths
+#: the column naming the path of each waypoint row in a Parquet dataset of paths
+PATH_COLUMN = "path"
+
+
+@dataclass(frozen=True)
+class TrajectoryTask:
+    """What a partition of paths needs besides its rows: the :class:`~kinematics.usecases.TrajectoryLimits`,
+    the ``interpolation``, ``blend`` and ``rate`` of :func:`kinematics.trajectory`, and the name of the
+    path id column (``path_column``)."""
+
+    limits: Any
+    interpolation: str = "spline"
+    blend: float = 0.0
+    rate: float = 100.0
+    path_column: str = PATH_COLUMN
+
+
+def trajectory_columns(joint_names: Sequence[str]) -> list[str]:
+    """The sample columns of a trajectory table: ``t``, then ``q_<joint>``, ``qd_<joint>``, ``qdd_<joint>``
+    (the order of the local command's CSV)."""
+    return ["t"] + [f"{p}_{n}" for p in ("q", "qd", "qdd") for n in joint_names]
+
+
+def trajectory_partition(df, spec, task: TrajectoryTask):
+    """The trajectories (a pandas DataFrame: the path id column, then :func:`trajectory_columns`) of the
+    paths in ``df``: each path id's rows, in their order, are its waypoints (joint columns by name);
+    paths in the order of their first row. A local run and a Dask run call this on the same tables."""
+    import pandas as pd
+
+    from .usecases import Query, trajectory
+
+    model = worker_model(spec)
+    missing = [c for c in (task.path_column, *model.joint_names) if c not in df.columns]
+    if missing:
+        raise KinematicsError(f"no column {', '.join(missing)} in the dataset of paths")
+    names = trajectory_columns(model.joint_names)
+    query, frames = Query(model), []
+    for pid, rows in df.groupby(task.path_column, sort=False):
+        W = rows[list(model.joint_names)].to_numpy(dtype=np.float64)
+        try:
+            a = trajectory(query, W, task.limits, interpolation=task.interpolation, blend=task.blend, rate=task.rate)
+        except KinematicsError as exc:
+            raise type(exc)(f"path {pid}: {exc}") from None
+        frame = pd.DataFrame(np.column_stack([a.t, a.q, a.qd, a.qdd]), columns=names)
+        frame.insert(0, task.path_column, pd.Series([pid] * len(a.t), dtype=df[task.path_column].dtype))
+        frames.append(frame)
+    if not frames:
+        empty = pd.DataFrame({n: np.zeros(0) for n in names})
+        empty.insert(0, task.path_column, pd.Series([], dtype=df[task.path_column].dtype))
+        return empty
+    return pd.concat(frames, ignore_index=True)
+
+
+def check_paths_apart(ids_per_part) -> None:
+    """Refuse a path id found in two files (partitions): each path must lie in one file."""
+    seen: dict[Any, int] = {}
+    for k, ids in enumerate(ids_per_part):
+        for pid in ids:
+            if seen.setdefault(pid, k) != k:
+                raise KinematicsError(f"path {pid} has rows in two files of the dataset; keep each path in one file")
+
+
+def run_parquet_trajectories(source, dest, model, task: TrajectoryTask, address: str = "local") -> int:
+    """The trajectory of every path of the Parquet dataset ``source`` (one partition per file) on the Dask
+    cluster at ``address``, written as the Parquet dataset ``dest`` (one file per input file); the
+    number of paths."""
+    spec = model_spec(model)
+    m = worker_model(spec)
+    client = connect(address)
+    try:
+        warm_up(client, spec)
+        dd = _dask()
+        ddf = dd.read_parquet(str(source), columns=[task.path_column, *m.joint_names], split_row_groups=False)
+        ids = ddf[task.path_column].map_partitions(lambda s: s.drop_duplicates(), meta=ddf._meta[task.path_column])
+        parts = [p.tolist() for p in client.compute(ids.to_delayed(), sync=True)]
+        check_paths_apart(parts)
+        meta = trajectory_partition(ddf._meta, spec, task)
+        ddf.map_partitions(trajectory_partition, spec, task, meta=meta).to_parquet(str(dest), write_index=False,
+                                                                                  **WRITE_OPTIONS)
+        return sum(len(p) for p in parts)
+    finally:
+        close(client)

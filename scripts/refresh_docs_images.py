@@ -25,6 +25,8 @@ PICTURES = (
      "viewer_ik_ghosts.png", "viewer_ik_ghosts.png"),
     ("tests/app/test_viewer_ghosts.py::test_the_calibration_tab_draws_a_bar_per_measurement",
      "viewer_calibration.png", "viewer_calibration.png"),
+    ("tests/app/test_viewer_trajectory.py::test_a_planned_path_is_timed_played_in_time_and_charted",
+     "viewer_trajectory.png", "viewer_trajectory.png"),
 )
 
 

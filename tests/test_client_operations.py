@@ -116,3 +116,24 @@ def test_closed_forms_and_task_vectors(kin, ur5):
     with pytest.raises(ServiceError) as err:
         kin.task("ur5", Q, link="no-such-link")
     assert err.value.slug == "unknown-link"
+
+
+def test_trajectory(kin, ur5):
+    from kinematics import TrajectoryLimits, trajectory
+
+    W = np.array([[0.0, -1.57, 1.57, 0.0, 1.57, 0.0], [0.5, -1.2, 1.2, 0.3, 1.57, 0.0], [1.0, -1.0, 0.8, 0.0, 1.2, 0.5]])
+    got = kin.trajectory("ur5", W, limits={"velocity": 1.0, "acceleration": 3.0}, rate=50)
+    want = trajectory(ur5, W, TrajectoryLimits(velocity=1.0, acceleration=3.0), rate=50)
+    assert got["duration"] == want.duration and got["method"] == want.method
+    for key in ("t", "q", "qd", "qdd"):
+        assert isinstance(got[key], np.ndarray)
+        np.testing.assert_array_equal(got[key], getattr(want, key))
+    np.testing.assert_array_equal(got["limits"]["acceleration"], np.full(6, 3.0))
+    binary = kin.trajectory("ur5", W, limits={"velocity": 1.0, "acceleration": 3.0}, rate=50, npz=True)
+    assert binary["duration"] == want.duration and binary["method"] == want.method
+    assert kin.joint_names() == list(ur5.joint_names)
+    for key in ("t", "q", "qd", "qdd"):
+        np.testing.assert_array_equal(binary[key], getattr(want, key))
+    with pytest.raises(ServiceError) as err:
+        kin.trajectory("ur5", W, limits={"velocity": 1.0})
+    assert err.value.status == 422 and "acceleration" in err.value.detail

@@ -7,6 +7,12 @@ columns), ``.mcap`` (one ``trajectory_msgs/msg/JointTrajectory``) or, without an
 directory: a ROS 2 bag of that message (as ``ros2 bag record -o NAME``); the last two need the `logs` extra. With several inputs,
 OUTPUT is a directory and each result is named after its input (``--format`` gives the kind), with
 a progress bar; one line per path to stderr: its duration and method.
+
+A dataset of paths: INPUT a Parquet file, directory or glob with a ``path`` column (``--path-column``)
+beside the joint columns; each path id's rows, in order, are its waypoints, and each path lies in
+one file. OUTPUT is then a directory of Parquet files, one per input file: the path id, ``t`` and
+the ``q_``, ``qd_``, ``qdd_`` columns, one trajectory per path id. ``--dask local:N`` (or a scheduler
+address) runs the same on a Dask cluster, one task per file, with the same answers.
 """
 
 from __future__ import annotations
@@ -18,10 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from .. import usecases
+from ..errors import KinematicsError
 from ..usecases.trajectory import INTERPOLATIONS
 from ..io import ros_trajectory
 from . import EXIT_OK, EXIT_USAGE, add_command
-from .pipeline import _fail, _quietly, model_or_exit_code, open_input
+from .common import fail, model_or_exit_code, open_input, quietly
 from .progress import progress
 
 FORMATS = ("npz", "csv", "mcap", "bag")
@@ -46,6 +53,10 @@ def register(sub) -> None:
     p.add_argument("--tool-link", metavar="LINK", help="limit this link's linear speed (with --tool-speed)")
     p.add_argument("--tool-speed", type=float, metavar="M/S")
     p.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="samples per second (default 100)")
+    p.add_argument("--path-column", default="path", metavar="NAME",
+                   help="a Parquet dataset of paths: the column of path ids (default: path)")
+    p.add_argument("--dask", metavar="SCHEDULER|local:N",
+                   help="a Parquet dataset of paths on a Dask cluster (local:N starts N local workers)")
     p.add_argument("--time-column", default=None, help=argparse.SUPPRESS)
     p.add_argument("--chunk", type=int, default=100_000, help=argparse.SUPPRESS)
 
@@ -65,12 +76,65 @@ def run_trajectory(args) -> int:
         tool = None
         if args.tool_link is not None or args.tool_speed is not None:
             if args.tool_link is None or args.tool_speed is None:
-                return _fail("trajectory", "--tool-link and --tool-speed go together", EXIT_USAGE)
+                return fail("trajectory", "--tool-link and --tool-speed go together", EXIT_USAGE)
             tool = usecases.ToolSpeed(args.tool_link, args.tool_speed)
         limits = usecases.TrajectoryLimits(numbers(args.velocity), numbers(args.acceleration), numbers(args.jerk), tool)
     except ValueError as exc:
-        return _fail("trajectory", f"a limit is not a comma-separated list of numbers: {exc}", EXIT_USAGE)
-    return _quietly(_run, args, model, limits)
+        return fail("trajectory", f"a limit is not a comma-separated list of numbers: {exc}", EXIT_USAGE)
+    if args.dask or _dataset_of_paths(args):
+        return _run_paths(args, model, limits)
+    return quietly(_run, args, model, limits)
+
+
+def _dataset_of_paths(args) -> bool:
+    """Whether INPUT is one Parquet dataset with the path id column."""
+    from ..io.parquet import is_parquet, parquet_files
+
+    if len(args.inputs) != 1 or not is_parquet(args.inputs[0]):
+        return False
+    import pyarrow.parquet as pq
+
+    files = parquet_files(args.inputs[0])
+    return bool(files) and args.path_column in pq.ParquetFile(files[0]).schema_arrow.names
+
+
+def _run_paths(args, model, limits) -> int:
+    """A dataset of paths: one trajectory per path id, locally or (``--dask``) on a cluster, written
+    as a directory of Parquet files, one per input file (:func:`kinematics.distributed.trajectory_partition`)."""
+    from .. import distributed
+    from ..io.parquet import WRITE_OPTIONS, is_parquet, parquet_files
+
+    if len(args.inputs) != 1 or not is_parquet(args.inputs[0]):
+        return fail("trajectory", "--dask reads one Parquet dataset of paths (a file, a directory or a glob)", EXIT_USAGE)
+    if Path(args.output).suffix:
+        return fail("trajectory", "a dataset of paths writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
+    task = distributed.TrajectoryTask(limits, args.interpolation, args.blend, args.rate, args.path_column)
+    try:
+        spec = distributed.model_spec(model_id=args.model, urdf=args.urdf, dh=args.dh)
+        if args.dask:
+            n = distributed.run_parquet_trajectories(args.inputs[0], args.output, spec, task, address=args.dask)
+        else:
+            n = _local_paths(args, spec, task, parquet_files(args.inputs[0]), WRITE_OPTIONS)
+    except (KinematicsError, OSError) as exc:
+        return fail("trajectory", str(exc), EXIT_USAGE)
+    print(f"trajectory: {n} paths{' on Dask' if args.dask else ''} -> {args.output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _local_paths(args, spec, task, files, options) -> int:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from .. import distributed
+
+    tables = [pq.read_table(f, columns=[task.path_column, *distributed.worker_model(spec).joint_names]).to_pandas()
+              for f in files]
+    distributed.check_paths_apart([t[task.path_column].drop_duplicates().tolist() for t in tables])
+    Path(args.output).mkdir(parents=True, exist_ok=True)
+    for k, df in enumerate(progress(tables, desc="files", unit="file", disable=None if len(tables) > 1 else True)):
+        out = distributed.trajectory_partition(df, spec, task)
+        pq.write_table(pa.Table.from_pandas(out, preserve_index=False), Path(args.output) / f"part.{k}.parquet", **options)
+    return sum(int(t[task.path_column].nunique()) for t in tables)
 
 
 def output_kind(path: str, given: str | None) -> str:

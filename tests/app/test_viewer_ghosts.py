@@ -106,8 +106,9 @@ def test_ghosts_are_every_solution_and_a_click_takes_one(server, browser):
     assert _severe_console(browser) == []
 
 
-@needs_browser
-def test_a_path_is_planned_played_to_its_end_and_its_stop_is_marked(server, browser):
+def _plan_a_path(server, browser) -> tuple[list[float], list[float], dict, list[float]]:
+    """The UR5 page with a Cartesian path of tool0 planned from FK(UR5_Q_KNOWN), PATH_OFFSET long:
+    ``(start, end, quaternion, seed)``."""
     _open(browser, f"{server}/viewer/ur5")
     browser.find_element(By.CSS_SELECTOR, '#link-list option[value="tool0"]').click()
     _wait(browser, lambda d: _state(d)["selectedLink"] == "tool0", "tool0 selected")
@@ -125,6 +126,12 @@ def test_a_path_is_planned_played_to_its_end_and_its_stop_is_marked(server, brow
     browser.find_element(By.ID, "path-plan").click()
     _wait(browser, lambda d: (_js(d, "window.viewerState.path") or {}).get("rows", 0) > 0
           and not _js(d, "window.viewerState.path.playing") and _state(d)["pathResponses"] >= 1, "the planned path")
+    return start, end, quaternion, seed
+
+
+@needs_browser
+def test_a_path_is_planned_played_to_its_end_and_its_stop_is_marked(server, browser):
+    start, end, quaternion, seed = _plan_a_path(server, browser)
 
     waypoints = [{"position": p, "quaternion": quaternion} for p in (start, end)]
     api = httpx.post(f"{server}/models/ur5/ik/path",

@@ -63,6 +63,9 @@ export const state = {
   path: null,         // {rows, targets, row, playing, complete, fraction, stopped, waypoints}
   pathRequests: 0,
   pathResponses: 0,
+  trajectory: null,   // {duration, method, samples, sample, t, playing, waypoints, limits, velocityRatio, accelerationRatio}
+  trajectoryRequests: 0,
+  trajectoryResponses: 0,
   calibration: null,  // {model, measurements, bars, rmse_before, rmse_after, holdout, outliers}
   calRequests: 0,
   calResponses: 0,
