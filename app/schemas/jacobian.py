@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any, Union
 
 import numpy as np
+from kinematics.errors import KinematicsError
 from pydantic import BaseModel, Field, model_validator
 
 from kinematics.spatial.reference import Reference
@@ -43,7 +44,8 @@ def check_analytic_reference(reference: Reference | None, representation: str | 
     local_world_aligned Jacobian: another ``reference`` asked for with it is refused, never changed."""
     if reference is not None and (representation is not None or components is not None) \
             and Reference(reference) is not Reference.LOCAL_WORLD_ALIGNED:
-        raise ValueError(f"reference {Reference(reference).value!r} with representation: the analytic Jacobian "
+        # a KinematicsError, not a ValueError: the request is well formed, the combination is refused (422)
+        raise KinematicsError(f"reference {Reference(reference).value!r} with representation: the analytic Jacobian "
                          "J_r = dr/dq is built from the local_world_aligned Jacobian; leave reference out (or give "
                          "local_world_aligned), or leave representation out for the geometric Jacobian in "
                          f"{Reference(reference).value}")

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..algorithms.ik import IKSolution
 from ..model.robot import RobotModel
+from ..errors import KinematicsError
 from .ik_all import IKAllAnswer, ik_all
 from .ik_options import IKOptions
 from .ik_select import IKProblem, Selection, selection

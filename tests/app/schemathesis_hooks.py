@@ -43,11 +43,14 @@ from app.errors import KINEMATICS_ERRORS, PROBLEM_TYPE_PREFIX
 
 BUDGETS = ("verify", "result", "ik-work")
 #: the budgets the document states (``maximum``, ``maxItems``): their refusals of schema-invalid requests
-LIMIT_TYPES = frozenset(PROBLEM_TYPE_PREFIX + f"{budget}-too-large" for budget in ("batch", "workspace-samples"))
+LIMIT_TYPES = frozenset(PROBLEM_TYPE_PREFIX + f"{budget}-too-large"
+                        for budget in ("batch", "workspace-samples", "trajectory-rate", "trajectory-samples"))
 #: problem types that depend on the model or on the content of a description (see the docstring)
 SEMANTIC_TYPES = frozenset(
     {PROBLEM_TYPE_PREFIX + slug for _, status, slug, _ in KINEMATICS_ERRORS if status == 422}
     | {PROBLEM_TYPE_PREFIX + f"{budget}-too-large" for budget in BUDGETS}
+    # a trajectory's samples follow from its duration (the path and the limits); its rate is over the settings' limit
+    | {PROBLEM_TYPE_PREFIX + "trajectory-rate-too-large", PROBLEM_TYPE_PREFIX + "trajectory-samples-too-large"}
     | {PROBLEM_TYPE_PREFIX + "model-too-large", PROBLEM_TYPE_PREFIX + "expansion-too-large",
        PROBLEM_TYPE_PREFIX + "archive-too-large", PROBLEM_TYPE_PREFIX + "time-budget-exceeded"}
 )
