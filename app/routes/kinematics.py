@@ -63,10 +63,7 @@ async def read_jacobian_request(
         description=".npy bodies with representation: components kept (repeat or comma-separate)")] = None,
 ) -> JacobianRequest:
     def npy(body: bytes) -> dict:
-        try:
-            check_analytic_reference(reference, representation, split_names(components))
-        except ValueError as exc:
-            raise ProblemError(422, f"reference: {exc}", slug="validation-error", field="reference") from None
+        check_analytic_reference(reference, representation, split_names(components))  # a 422, as for JSON
         return {"q": decode_q(body), "link": link, "reference": Reference.WORLD if reference is None else reference,
                 "verify": verify, "limits": limits, "point": parse_point(point), "floating_base": floating_base,
                 "normalize": normalize, "representation": representation, "components": split_names(components)}
