@@ -24,7 +24,6 @@ from ..adapter import (INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, LimitsQuery
                        error_responses, execute, names_headers, npy_response_doc, parse_point,
                        plain_json, read_request, request_body_doc, split_names, verification_headers)
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
-from ..errors import ProblemError
 from ..metrics import record_configurations
 from ..npy import decode_q
 from ..responses import FastJSONResponse, NpyResponse
