@@ -52,8 +52,9 @@ class Selection(Protocol):
     #: the strategy looks at the full solution set (a floating base is refused, a default seed is used)
     full_set: bool
 
-    def work(self, model: RobotModel, link: str, options: IKOptions) -> tuple[int, int]:
-        """``(attempts - 1, steps per attempt)`` at most per target, for the budget's ``max_ik_work``."""
+    def work(self, model: RobotModel, link: str, options: IKOptions, family=None) -> tuple[int, int]:
+        """``(attempts - 1, steps per attempt)`` at most per target, for the budget's ``max_ik_work``
+        (``family``: the chain's, which :meth:`IKProblem.of` has detected already for a full-set strategy)."""
 
     def select(self, problem: IKProblem) -> tuple[IKSolution, np.ndarray | None]:
         """One answer per target, and with collision avoidance ``collision_free`` (N,) (else None)."""
@@ -96,11 +97,13 @@ def check_solutions(query: Query, n: int, chain, family, limits: str = "respect"
                             + (", with the 2 pi copies within the joint limits)" if limits == "respect" else ")"))
 
 
-def set_work(model: RobotModel, link: str, options: IKOptions) -> tuple[int, int]:
+def set_work(model: RobotModel, link: str, options: IKOptions, family=None) -> tuple[int, int]:
     """The work of a full solution set: the closed form's candidates x Newton steps, or the search's
-    seeds x its steps."""
+    seeds x its steps (``family``: the chain's, detected here when not given)."""
     wanted = options.solutions
-    if detect(free_chain(model, link, wanted.locked_map)).closed_form and wanted.method != "numeric":
+    if family is None:
+        family = detect(free_chain(model, link, wanted.locked_map))
+    if family.closed_form and wanted.method != "numeric":
         return 15, _ik_all.NEAR_STEPS
     return _ik_all.SEARCH_SEEDS - 1, _ik_all.SEARCH_STEPS
 
@@ -136,10 +139,13 @@ class IKProblem:
         N = T.shape[0]
         link = query.frame_link()
         free = options.collisions.filter(model, query.collision_pairs) if options.collisions is not None else None
-        if strategy.full_set:  # the largest answer the set could be, before the work
+        if strategy.full_set:  # the largest answer the set could be, before the work (the family detected once)
             chain = free_chain(model, link, options.solutions.locked_map)
-            check_solutions(query, N, chain, detect(chain), options.solutions.solution_limits)
-        budget.check_ik_work(N, *strategy.work(model, link, options))
+            family = detect(chain)
+            check_solutions(query, N, chain, family, options.solutions.solution_limits)
+            budget.check_ik_work(N, *strategy.work(model, link, options, family=family))
+        else:
+            budget.check_ik_work(N, *strategy.work(model, link, options))
         seeds = query.seeds(seed, N)
         B = query.base_poses(N)
         return cls(query, model, link, T, is_batch, None if B is None else np.ascontiguousarray(B), query.T_tool,
@@ -294,8 +300,8 @@ class NearestOfSet:
 
     full_set = True
 
-    def work(self, model: RobotModel, link: str, options: IKOptions) -> tuple[int, int]:
-        return set_work(model, link, options)
+    def work(self, model: RobotModel, link: str, options: IKOptions, family=None) -> tuple[int, int]:
+        return set_work(model, link, options, family)
 
     def select(self, problem: IKProblem) -> tuple[IKSolution, np.ndarray | None]:
         seeds = problem.start
