@@ -59,3 +59,13 @@ def refuse_files(monkeypatch) -> None:
     monkeypatch.setattr(builtins, "open", refuse)
     monkeypatch.setattr(io, "open", refuse)
     monkeypatch.setattr(os, "open", refuse)
+
+
+def run_cli(argv, capsys):
+    """``kinematics ARGV`` in this process: ``(exit code, stdout, stderr)``; no traceback allowed."""
+    from kinematics.cli import main
+
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    return code, out, err

@@ -8,16 +8,9 @@ import csv
 import numpy as np
 
 from kinematics import compile_model, default_catalogue, usecases
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 
 SAMPLES = "300"
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def test_ik_all_avoid_collisions(tmp_path, capsys):

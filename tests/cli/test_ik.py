@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from kinematics import compile_model, default_catalogue
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 from kinematics.io.catalogue import DEFAULT_PRESETS_DIR
 from kinematics.io.result_files import IK_STATUS_COLUMNS
 from kinematics.io.trajectory import open_target_rows, pose_rows
@@ -33,13 +33,6 @@ def targets(ur5):
     """(N, 4, 4) poses of tool0 at random configurations."""
     Q = ur5.sample_configurations(N, np.random.default_rng(11))
     return compile_model(ur5).fk(Q, ["tool0"])[:, 0]
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def read_csv(path) -> tuple[list[str], list[list[str]]]:

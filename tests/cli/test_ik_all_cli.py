@@ -9,16 +9,9 @@ import numpy as np
 
 from kinematics import compile_model, default_catalogue
 from kinematics.algorithms.ik import pose_errors
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 
 Q0 = np.array([[0.3, -1.0, 1.2, -0.5, 0.8, 0.2], [0.1, -1.5, 1.0, 0.2, 1.1, -0.4]])
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def _targets(tmp_path):

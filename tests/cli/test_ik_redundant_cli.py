@@ -10,16 +10,9 @@ import numpy as np
 
 from kinematics import compile_model, default_catalogue
 from kinematics.algorithms.ik import pose_errors
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 
 Q = np.array([0.1, -0.4, 0.2, -2.0, 0.3, 1.5, 0.7, 0.02])
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def _target(tmp_path):

@@ -21,6 +21,8 @@ import pytest
 
 from kinematics import compile_model, default_catalogue, load_urdf
 from kinematics.cli import main
+
+from tests.helpers import run_cli as run
 from kinematics.io.catalogue import DEFAULT_PRESETS_DIR
 from kinematics.io.result_files import NPY_HEADER_BYTES, RowSampler, npy_header
 from tests.paths import FIXTURES, REPO
@@ -61,13 +63,6 @@ def poses_from_csv(header, table, links) -> np.ndarray:
         assert np.all(quat[:, 0] >= 0.0)
         out[:, k, :3, :3] = quat_to_matrix(quat)
     return out
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 # ============================================================================ FK round trips

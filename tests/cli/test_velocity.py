@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from kinematics import api
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 
 N = 30
 
@@ -19,13 +19,6 @@ def states(ur5):
     rng = np.random.default_rng(5)
     Q = ur5.sample_configurations(N, rng)
     return Q, rng.uniform(-1, 1, Q.shape)
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def test_npy_in_csv_out_with_verify(tmp_path, capsys, ur5, states):

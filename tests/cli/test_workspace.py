@@ -9,16 +9,9 @@ import numpy as np
 import pytest
 
 from kinematics import api, default_catalogue
-from kinematics.cli import main
+from tests.helpers import run_cli as run
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-
-
-def run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 def test_ur5_npz_and_plot(tmp_path, capsys):
