@@ -82,3 +82,18 @@ def write_joint_parquet(path: Path, model, Q: np.ndarray, times=None, row_group_
         cols[name] = pa.array(Q[:, names.index(name)])
     pq.write_table(pa.table(cols), path, row_group_size=row_group_size)
     return path
+
+
+def write_joint_dataset(root: Path, model, sizes, seed: int, row_group_size: int) -> np.ndarray:
+    """A Parquet dataset ``root/log/part-K.parquet`` of random configurations of ``model``, ``sizes``
+    rows a file (:func:`write_joint_parquet`, times numbering the rows across files): every row's q."""
+    (root / "log").mkdir()
+    rng = np.random.default_rng(seed)
+    Qs, start = [], 0
+    for k, n in enumerate(sizes):
+        Q = model.sample_configurations(n, rng)
+        write_joint_parquet(root / "log" / f"part-{k}.parquet", model, Q, np.arange(start, start + n, dtype=np.int64),
+                            row_group_size=row_group_size)
+        Qs.append(Q)
+        start += n
+    return np.concatenate(Qs)

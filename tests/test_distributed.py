@@ -13,7 +13,7 @@ pq = pytest.importorskip("pyarrow.parquet")
 from kinematics import compile_model, default_catalogue
 from kinematics import distributed
 from kinematics.cli import main
-from tests.rosbag_files import write_joint_parquet
+from tests.rosbag_files import write_joint_dataset
 
 N_PER_FILE = (7000, 5000, 9001)
 
@@ -21,16 +21,7 @@ N_PER_FILE = (7000, 5000, 9001)
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory, ur5):
     root = tmp_path_factory.mktemp("dask-data")
-    (root / "log").mkdir()
-    rng = np.random.default_rng(17)
-    Qs, start = [], 0
-    for k, n in enumerate(N_PER_FILE):
-        Q = ur5.sample_configurations(n, rng)
-        write_joint_parquet(root / "log" / f"part-{k}.parquet", ur5, Q, np.arange(start, start + n, dtype=np.int64),
-                            row_group_size=2000)
-        Qs.append(Q)
-        start += n
-    return root, np.concatenate(Qs)
+    return root, write_joint_dataset(root, ur5, N_PER_FILE, seed=17, row_group_size=2000)
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ pq = pytest.importorskip("pyarrow.parquet")
 from kinematics import UserPairs, collision
 from kinematics import distributed
 from kinematics.cli import main
-from tests.rosbag_files import write_joint_parquet
+from tests.rosbag_files import write_joint_dataset
 
 SAMPLES = 300
 PAIRS = UserPairs(allow=[("base_link", "upper_arm_link")], forbid=[("wrist_1_link", "wrist_3_link")])
@@ -23,16 +23,7 @@ PAIRS = UserPairs(allow=[("base_link", "upper_arm_link")], forbid=[("wrist_1_lin
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory, ur5):
     root = tmp_path_factory.mktemp("dask-collision")
-    (root / "log").mkdir()
-    rng = np.random.default_rng(23)
-    Qs, start = [], 0
-    for k, n in enumerate((700, 501)):
-        Q = ur5.sample_configurations(n, rng)
-        write_joint_parquet(root / "log" / f"part-{k}.parquet", ur5, Q, np.arange(start, start + n, dtype=np.int64),
-                            row_group_size=200)
-        Qs.append(Q)
-        start += n
-    return root, np.concatenate(Qs)
+    return root, write_joint_dataset(root, ur5, (700, 501), seed=23, row_group_size=200)
 
 
 def _joined(answer):
