@@ -25,7 +25,7 @@ from ..errors import JointValueError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from .ik_options import IKOptions
-from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain, most_solutions  # noqa: F401 (the bounds' home)
+from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain
 from .query import Query
 
 
