@@ -277,6 +277,52 @@ def _chain_family(model: RobotModel, link: str, locked: dict | None,
     return hit
 
 
+@dataclass(frozen=True, slots=True)
+class _Problem:
+    """One call of :func:`all_solutions` as its steps share it: the model and its compiled form, the
+    link (and ``tool``), the reduced ``chain``, its family and the chain as the compiled pass takes it
+    (``real``), the targets in the root frame ``T_root`` (N, 4, 4), each target's configuration off the
+    chain ``base_q`` (N, dof), and how the solutions are judged (``mode``, ``tolerances`` (position,
+    rotation), ``search_seeds`` of the multistart search, ``locked`` joints)."""
+
+    model: RobotModel
+    poe: PoEModel
+    link: str
+    tool: np.ndarray | None
+    chain: Chain
+    fam: Family
+    real: tuple
+    T_root: np.ndarray
+    base_q: np.ndarray
+    locked: dict | None
+    mode: str
+    tolerances: tuple[float, float]
+    search_seeds: int
+
+    @property
+    def position_only(self) -> bool:
+        return self.mode == "position"
+
+    @property
+    def N(self) -> int:
+        return len(self.T_root)
+
+    def errors(self, Q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(position, rotation) errors of the rows ``Q`` (R, dof) at ``targets`` (R, 4, 4)."""
+        return pose_errors(self.poe.fk(Q, [self.link], tool=self.tool)[:, 0], targets)
+
+    def newton(self, Q: np.ndarray, targets: np.ndarray, steps: int, damped: bool) -> np.ndarray:
+        """:func:`newton` on the chain's joints of the rows ``Q`` at ``targets``."""
+        return newton(self.poe, self.link, Q, targets, self.chain.columns, steps, self.tool, self.position_only, damped)
+
+    def near_enough(self, p: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Rows not yet on a solution (``p``, ``r`` above :data:`TIGHT`) but within ten times the
+        tolerances: more Newton steps may land them."""
+        tp, tr = self.tolerances
+        po = self.position_only
+        return np.isfinite(p) & (p + np.where(po, 0.0, r) > TIGHT) & (p < 10 * tp) & (po | (r < 10 * tr))
+
+
 def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
                   tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
                   method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
@@ -307,35 +353,31 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     # a family's kernel: its closed form, the elimination, or (the fallback of a spherical wrist on a
     # general arm) the bracketing search
     use_closed = kernel is not None and method != "numeric" and (not position_only or kernel.position)
-    poe = compile_model(model)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     N = targets.shape[0]
-    T_root = targets if base is None else np.matmul(inverse_transform(base), targets)
-    dof = model.dof
-    base_q = np.zeros((N, dof))
+    base_q = np.zeros((N, model.dof))
     if seed is not None:
-        base_q[:] = np.broadcast_to(np.asarray(seed, dtype=float), (N, dof))
+        base_q[:] = np.broadcast_to(np.asarray(seed, dtype=float), (N, model.dof))
     for name, v in chain.locked.items():
         base_q[:, model.q_index[name]] = v
+    s = _Problem(model, compile_model(model), link, tool, chain, fam, real,
+                 targets if base is None else np.matmul(inverse_transform(base), targets), base_q, locked, mode,
+                 (position_tolerance, rotation_tolerance), search_seeds)
     degenerate = np.zeros(0, dtype=np.intp)
     general = kernel is not None and not kernel.compiled
     if use_closed:
         if general and position_only:  # a 2R's position (numpy)
-            cand, counts = ik_general.family_candidates(fam, T_root, position_only)
-            rows, owner, errors = _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand,
-                                                     np.maximum(counts, 0), position_only, position_tolerance,
-                                                     rotation_tolerance)
+            cand, counts = ik_general.family_candidates(fam, s.T_root, position_only)
+            rows, owner, errors = _polish_candidates(s, cand, np.maximum(counts, 0))
         else:
             if general:  # the general 6R elimination, the short chains' closed forms, then the compiled pass
-                cand, counts = ik_general.family_candidates(fam, T_root, position_only)
+                cand, counts = ik_general.family_candidates(fam, s.T_root, position_only)
                 degenerate = np.flatnonzero(counts < 0)  # the elimination degenerates there: the search joins in
                 Qk, found, pe, re, within, sing = _compiled_pass(
-                    model, real, T_root, base_q, np.ascontiguousarray(cand), np.maximum(counts, 0), False,
-                    GENERAL_PASS, (position_tolerance, rotation_tolerance))
+                    s, np.ascontiguousarray(cand), np.maximum(counts, 0), False, GENERAL_PASS)
                 nominal = None
             else:  # candidates, polish, check, duplicates and flags in one compiled pass per target
-                Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(
-                    model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance)
+                Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(s)
             if fam.near and not general:
                 short = np.flatnonzero(found < nominal)
             else:
@@ -348,12 +390,10 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
-        rows, owner, errors = _search(poe, link, tool, chain, real, T_root, base_q, search_seeds, position_only,
-                                      position_tolerance, rotation_tolerance, model)
+        rows, owner, errors = _search(s)
     complete = np.ones(N, bool)
     if use_closed and degenerate.size:
-        rows, owner = _join_search(model, link, T_root, degenerate, rows, owner, base_q, chain, tool, locked, mode,
-                                   position_tolerance, rotation_tolerance, search_seeds)
+        rows, owner = _join_search(s, degenerate, rows, owner)
         errors = None
     if use_closed and fam.near and not general:
         # a near family: where the polish found fewer solutions than the ideal chain has (a branch
@@ -361,50 +401,45 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         # solution) joins in for that target, or where it cannot apply, the search
         complete = found >= nominal
         if short.size:
-            rows, owner, proven = _join_elimination(model, chain, real, T_root, short, rows, owner, base_q,
-                                                    position_only, position_tolerance, rotation_tolerance)
+            rows, owner, proven = _join_elimination(s, short, rows, owner)
             complete[short[proven]] = True
             rest = short[~proven]
             if rest.size:
-                rows, owner = _join_search(model, link, T_root, rest, rows, owner, base_q, chain, tool, locked, mode,
-                                           position_tolerance, rotation_tolerance, search_seeds)
+                rows, owner = _join_search(s, rest, rows, owner)
             found = np.bincount(owner, minlength=N)
             complete[rest] = found[rest] >= nominal[rest]
             errors = None
     if limits == "respect":
-        rows, owner = _all_copies(model, chain, rows, owner)
+        rows, owner = all_copies(model, chain, rows, owner)
         errors = None
     if seed is not None and len(rows):
         order = np.lexsort((np.abs(rows - base_q[owner]).sum(axis=1), owner))  # by target, then nearest the seed
         rows, owner = rows[order], owner[order]
         errors = None if errors is None else (errors[0][order], errors[1][order])
-    return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam,
-                 "analytic" if use_closed and fam.closed_form else "search",
-                 complete, position_only, errors)
+    return _pack(s, rows, owner, "analytic" if use_closed and fam.closed_form else "search", complete, errors)
 
 
-def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool, locked, mode, position_tolerance,
-                 rotation_tolerance, search_seeds):
+def _join_search(s: _Problem, targets: np.ndarray, rows: np.ndarray, owner: np.ndarray):
     """``rows``, ``owner`` with the multistart search's solutions of the ``targets`` (indices) merged in."""
-    extra = all_solutions(model, link, T_root[targets], tool=tool, locked=locked, limits="ignore", method="numeric",
-                          mode=mode, position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance,
-                          search_seeds=search_seeds)
-    more = [_with_free(base_q[n], chain, extra.q[i, :extra.count[i]]) for i, n in enumerate(targets)]
-    return _merge(chain, len(T_root), rows, owner, targets, more)
+    extra = all_solutions(s.model, s.link, s.T_root[targets], tool=s.tool, locked=s.locked, limits="ignore",
+                          method="numeric", mode=s.mode, position_tolerance=s.tolerances[0],
+                          rotation_tolerance=s.tolerances[1], search_seeds=s.search_seeds)
+    more = [_with_free(s.base_q[n], s.chain, extra.q[i, :extra.count[i]]) for i, n in enumerate(targets)]
+    return _merge(s.chain, s.N, rows, owner, targets, more)
 
 
-def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, position_only, position_tolerance,
-                      rotation_tolerance):
+def _join_elimination(s: _Problem, targets: np.ndarray, rows: np.ndarray, owner: np.ndarray):
     """``rows``, ``owner`` with the solutions of the ``targets`` (indices) by the 16-degree elimination
     of the real chain (:mod:`.ik_general`, every solution) merged in, and a mask (len(targets),) of the
     targets it solved (False: it degenerates there, or does not apply to the chain)."""
+    chain = s.chain
     proven = np.zeros(len(targets), bool)
-    if position_only or not ik_general.applies(chain):
+    if s.position_only or not ik_general.applies(chain):
         return rows, owner, proven
-    cand, counts = ik_general.general_6r_candidates(chain, T_root[targets])
+    cand, counts = ik_general.general_6r_candidates(chain, s.T_root[targets])
     # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
-    Qk, found, *_ = _compiled_pass(model, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
-                                   np.maximum(counts, 0), False, NEAR_PASS, (position_tolerance, rotation_tolerance))
+    Qk, found, *_ = _compiled_pass(s, np.ascontiguousarray(cand), np.maximum(counts, 0), False, NEAR_PASS,
+                                   rows_of=targets)
     more = [Qk[i, :found[i]] for i in range(len(targets))]
     # trusted where it did not degenerate and found again every solution the closed form's polish found
     # (where it misses one of those, its roots are not to be trusted there: the search joins in)
@@ -412,7 +447,7 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
     for i, n in enumerate(targets):
         proven[i] = counts[i] >= 0 and all(any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])
                                            for q in rows[owner == n])
-    return (*_merge(chain, len(T_root), rows, owner, targets, more), proven)
+    return (*_merge(chain, s.N, rows, owner, targets, more), proven)
 
 
 def _merge(chain, N, rows, owner, targets, more):
@@ -429,60 +464,57 @@ def _merge(chain, N, rows, owner, targets, more):
     return rows[keep], owner[keep]
 
 
-def _search(poe, link, tool, chain, real, T_root, base_q, search_seeds, position_only, position_tolerance,
-            rotation_tolerance, model):
+def _search(s: _Problem):
     """The multistart search: rows (R, dof), owner (R,) and their (position, rotation) errors."""
-    N = len(T_root)
-    seeds = _search_seeds(model, chain, search_seeds)
-    if not position_only and not chain.mimic:
-        return _search_compiled(model, chain, real, T_root, base_q, seeds, position_tolerance, rotation_tolerance)
+    model, chain, N = s.model, s.chain, s.N
+    seeds = _search_seeds(model, chain, s.search_seeds)
+    if not s.position_only and not chain.mimic:
+        return _search_compiled(s, seeds)
     owner = np.repeat(np.arange(N), len(seeds))
-    Q = base_q[owner].copy()
+    Q = s.base_q[owner].copy()
     Q[:, chain.columns] = np.tile(seeds, (N, 1))
-    Tt = T_root[owner]
+    Tt = s.T_root[owner]
     if not len(Q):
         return Q, owner, None
-    Q = newton(poe, link, Q, Tt, chain.columns, SEARCH_STEPS, tool, position_only, True)
+    Q = s.newton(Q, Tt, SEARCH_STEPS, True)
     # then undamped steps on the rows that came near a solution: quadratic convergence onto it
-    e = _errors6(poe.fk(Q, [link], tool=tool)[:, 0], Tt)
-    near = np.flatnonzero(np.linalg.norm(e[:, :3] if position_only else e, axis=1) < 1e-2)
-    Q[near] = newton(poe, link, Q[near], Tt[near], chain.columns, 6 * POLISH_STEPS, tool, position_only, False)
+    e = _errors6(s.poe.fk(Q, [s.link], tool=s.tool)[:, 0], Tt)
+    near = np.flatnonzero(np.linalg.norm(e[:, :3] if s.position_only else e, axis=1) < 1e-2)
+    Q[near] = s.newton(Q[near], Tt[near], 6 * POLISH_STEPS, False)
     Q = _wrap_revolute(model, chain, Q)
     ok = np.all(np.isfinite(Q), axis=1)
-    p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+    p, r = s.errors(np.where(ok[:, None], Q, 0.0), Tt)
     # rows near a solution but not on it to machine precision (a double root where two branches
     # meet converges only linearly): more Newton steps before the check
-    slow = np.flatnonzero(np.isfinite(p) & (p + np.where(position_only, 0.0, r) > TIGHT)
-                          & (p < 10 * position_tolerance) & (position_only | (r < 10 * rotation_tolerance)))
+    slow = np.flatnonzero(s.near_enough(p, r))
     if slow.size:
-        Q[slow] = _wrap_revolute(model, chain, newton(poe, link, Q[slow], Tt[slow], chain.columns, FINAL_STEPS, tool,
-                                                      position_only, False))
-        p[slow], r[slow] = pose_errors(poe.fk(Q[slow], [link], tool=tool)[:, 0], Tt[slow])
-    return _accepted(chain, Q, owner, np.full(N, len(seeds)), ok, p, r, position_only, position_tolerance,
-                     rotation_tolerance)
+        Q[slow] = _wrap_revolute(model, chain, s.newton(Q[slow], Tt[slow], FINAL_STEPS, False))
+        p[slow], r[slow] = s.errors(Q[slow], Tt[slow])
+    return _accepted(s, Q, owner, np.full(N, len(seeds)), ok, p, r)
 
 
-def _search_compiled(model, chain, real, T_root, base_q, seeds, position_tolerance, rotation_tolerance):
+def _search_compiled(s: _Problem, seeds: np.ndarray):
     """The multistart search of a pose in :func:`kinematics.engine.ik_polish.polish` (damped LM from
     every seed, then undamped steps near a solution), targets on the engine's threads."""
-    N, S = len(T_root), len(seeds)
-    cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, chain.n))
-    Qk, found, pe, re, within, sing = _compiled_pass(
-        model, real, T_root, base_q, cand, np.full(N, S, dtype=np.int64), False, SEARCH_PASS,
-        (position_tolerance, rotation_tolerance), min_rows=1, piece_rows=1)
+    N, S = s.N, len(seeds)
+    cand = np.broadcast_to(np.ascontiguousarray(seeds), (N, S, s.chain.n))
+    Qk, found, pe, re, within, sing = _compiled_pass(s, cand, np.full(N, S, dtype=np.int64), False, SEARCH_PASS,
+                                                     min_rows=1, piece_rows=1)
     slot = np.arange(S)[None, :] < found[:, None]
     return Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
 
 
-def _compiled_pass(model, real, T_root, base_q, cand, ccount, reversed_, newton: Newton, tolerances, before=None,
-                   after=None, min_rows=CLOSED_FORM_MIN_ROWS, piece_rows=None):
+def _compiled_pass(s: _Problem, cand, ccount, reversed_, newton: Newton, *, rows_of=None, before=None, after=None,
+                   min_rows=CLOSED_FORM_MIN_ROWS, piece_rows=None):
     """:func:`kinematics.engine.ik_polish.polish` of the candidates ``cand`` (N, C, n), ``ccount`` (N,)
-    of targets ``T_root`` over the engine's threads: ``real``, the chain as
-    :func:`~kinematics.engine.ik_polish.chain_arguments` gives it; ``newton``, how it polishes;
-    ``tolerances``, ``(position, rotation)``. ``before(a, b)`` and ``after(a, b)`` run on the same
-    thread before and after each row range (a family's kernel writing the candidates, a near family's
-    reference count). Returns q (N, C, dof) NaN-padded, count (N,), position and rotation errors
-    (N, C), within_limits (N, C), singular (N, C: 1 singular, 0 regular)."""
+    of the problem's targets (or of its targets ``rows_of``, indices) over the engine's threads:
+    ``newton``, how it polishes. ``before(a, b)`` and ``after(a, b)`` run on the same thread before
+    and after each row range (a family's kernel writing the candidates, a near family's reference
+    count). Returns q (N, C, dof) NaN-padded, count (N,), position and rotation errors (N, C),
+    within_limits (N, C), singular (N, C: 1 singular, 0 regular)."""
+    model = s.model
+    T_root = s.T_root if rows_of is None else s.T_root[rows_of]
+    base_q = s.base_q if rows_of is None else s.base_q[rows_of]
     N, C, dof = cand.shape[0], cand.shape[1], model.dof
     Qk = np.empty((N, C, dof))
     found = np.zeros(N, dtype=np.int64)
@@ -492,13 +524,13 @@ def _compiled_pass(model, real, T_root, base_q, cand, ccount, reversed_, newton:
     T_root = np.ascontiguousarray(T_root)
     limits = (np.ascontiguousarray(model.lower_limits), np.ascontiguousarray(model.upper_limits), LIMIT_TOLERANCE)
     settings = ik_polish.polish_settings(newton.steps, newton.lam0, newton.damped, newton.middle, TIGHT, newton.final,
-                                         newton.reach, *tolerances, DUPLICATE, SINGULAR)
+                                         newton.reach, *s.tolerances, DUPLICATE, SINGULAR)
     outputs = (Qk, found, pe, re, within, sing)
 
     def rows(a: int, b: int) -> None:  # nogil kernels over targets a..b, on the engine's threads
         if before is not None:
             before(a, b)
-        ik_polish.polish(cand, ccount, reversed_, T_root, base_q, real, settings, limits, a, b, outputs)
+        ik_polish.polish(cand, ccount, reversed_, T_root, base_q, s.real, settings, limits, a, b, outputs)
         if after is not None:
             after(a, b)
 
@@ -506,11 +538,12 @@ def _compiled_pass(model, real, T_root, base_q, cand, ccount, reversed_, newton:
     return Qk, found, pe, re, within, sing
 
 
-def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance):
+def _closed_form_solutions(s: _Problem):
     """Every solution by the family's compiled kernel (:mod:`.ik_kernels`) and :func:`_compiled_pass`:
     the arrays of :func:`_compiled_pass` and the ideal chain's counts (N,; a near family, else None)."""
+    fam = s.fam
     ideal = fam.ideal
-    goals = inverse_transform(T_root) if fam.reversed else T_root
+    goals = inverse_transform(s.T_root) if fam.reversed else s.T_root
     # row by row (not a batched BLAS product): a target alone gets its batch answer
     G = np.ascontiguousarray(np.einsum("nij,jk->nik", goals, inverse_transform(ideal.M)))
     kernel = kernel_of(fam)
@@ -531,17 +564,15 @@ def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tol
 
     def reference(a, b):  # a near family: the ideal chain's own count
         candidates(a, b, 0.0, cand0, count0)
-        ik_polish.nominal(cand0, count0, goals, *ideal_chain, position_tolerance, rotation_tolerance, DUPLICATE,
-                          a, b, nominal)
+        ik_polish.nominal(cand0, count0, goals, *ideal_chain, *s.tolerances, DUPLICATE, a, b, nominal)
 
-    out = _compiled_pass(model, real, T_root, base_q, cand, ccount, fam.reversed, NEAR_PASS if fam.near else EXACT_PASS,
-                         (position_tolerance, rotation_tolerance),
+    out = _compiled_pass(s, cand, ccount, fam.reversed, NEAR_PASS if fam.near else EXACT_PASS,
                          before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),
                          after=reference if fam.near else None)
     return out + (nominal,)
 
 
-def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Every ``q + 2πk`` copy within the limits of each row (R, dof) (:func:`_copies`, compiled):
     the copies (R', dof) and their targets (R',)."""
     rows = np.ascontiguousarray(rows, dtype=float).reshape(-1, model.dof)
@@ -559,42 +590,39 @@ def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.nda
     return out, np.repeat(np.asarray(owner, dtype=np.intp), per)
 
 
-def _polish_candidates(model, poe, link, tool, chain, T_root, base_q, cand, counts, position_only,
-                       position_tolerance, rotation_tolerance):
+def _polish_candidates(s: _Problem, cand: np.ndarray, counts: np.ndarray):
     """Closed-form candidates (N, C, n) with their counts (N,), measured, Newton-polished where not yet
     on a solution, checked against the tolerance and merged: rows (R, dof), owner (R,) and their
     (position, rotation) errors (the numpy path of :mod:`.ik_general`'s families)."""
-    N = len(T_root)
+    model, chain, N = s.model, s.chain, s.N
     owner = np.repeat(np.arange(N), counts)
-    Q = base_q[owner].copy()
+    Q = s.base_q[owner].copy()
     Q[:, chain.columns] = np.concatenate([cand[n, :counts[n]] for n in range(N)]) if N else np.zeros((0, chain.n))
-    Tt = T_root[owner]
+    Tt = s.T_root[owner]
     if not len(Q):
         return Q, owner, None
     Q = _wrap_revolute(model, chain, Q)
     ok = np.all(np.isfinite(Q), axis=1)
-    p, r = pose_errors(poe.fk(np.where(ok[:, None], Q, 0.0), [link], tool=tool)[:, 0], Tt)
+    p, r = s.errors(np.where(ok[:, None], Q, 0.0), Tt)
     todo = np.flatnonzero(ok & ~((p <= TIGHT) & (r <= TIGHT)))  # most candidates are on a solution already
     for steps in (POLISH_STEPS, POLISH_STEPS):  # a few steps, then a few more where a double root converges slowly
         if not todo.size:
             break
-        Q[todo] = _wrap_revolute(model, chain, newton(poe, link, Q[todo], Tt[todo], chain.columns, steps, tool,
-                                                      position_only, False))
+        Q[todo] = _wrap_revolute(model, chain, s.newton(Q[todo], Tt[todo], steps, False))
         ok[todo] = np.all(np.isfinite(Q[todo]), axis=1)
-        p[todo], r[todo] = pose_errors(poe.fk(np.where(ok[todo, None], Q[todo], 0.0), [link], tool=tool)[:, 0],
-                                       Tt[todo])
-        todo = todo[np.isfinite(p[todo]) & (p[todo] + np.where(position_only, 0.0, r[todo]) > TIGHT)
-                    & (p[todo] < 10 * position_tolerance) & (position_only | (r[todo] < 10 * rotation_tolerance))]
-    return _accepted(chain, Q, owner, counts, ok, p, r, position_only, position_tolerance, rotation_tolerance)
+        p[todo], r[todo] = s.errors(np.where(ok[todo, None], Q[todo], 0.0), Tt[todo])
+        todo = todo[s.near_enough(p[todo], r[todo])]
+    return _accepted(s, Q, owner, counts, ok, p, r)
 
 
-def _accepted(chain, Q, owner, counts, ok, p, r, position_only, position_tolerance, rotation_tolerance):
+def _accepted(s: _Problem, Q, owner, counts, ok, p, r):
     """The rows of ``Q`` (``counts`` per target, in target order) that are finite (``ok``) and within the
     tolerances, each solution of a target once: rows, owner and their (position, rotation) errors."""
-    ok &= (p <= position_tolerance) & (position_only | (r <= rotation_tolerance))
+    tp, tr = s.tolerances
+    ok &= (p <= tp) & (s.position_only | (r <= tr))
     starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
     keep = np.zeros(len(Q), bool)
-    ik_fast.distinct_rows(Q, ok, starts, chain.columns, chain.revolute, DUPLICATE, keep)
+    ik_fast.distinct_rows(Q, ok, starts, s.chain.columns, s.chain.revolute, DUPLICATE, keep)
     return Q[keep], owner[keep], (p[keep], r[keep])
 
 
@@ -621,10 +649,10 @@ def _singular(J: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, complete, position_only,
-          errors=None) -> AllSolutions:
-    """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target."""
-    dof = model.dof
+def _pack(s: _Problem, rows, owner, method, complete, errors=None) -> AllSolutions:
+    """The padded (N, K, ...) arrays of the solutions ``rows`` (R, dof) of targets ``owner`` (R,), sorted by target
+    (``errors``: their (position, rotation) errors if known)."""
+    model, chain, N, dof = s.model, s.chain, s.N, s.model.dof
     count = np.bincount(owner, minlength=N).astype(np.int64) if len(rows) else np.zeros(N, np.int64)
     K = int(count.max(initial=0))
     q = np.full((N, K, dof), np.nan)
@@ -633,9 +661,9 @@ def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, co
     pe = np.full((N, K), np.nan)
     re = np.full((N, K), np.nan)
     if len(rows):
-        p, r = errors if errors is not None else pose_errors(poe.fk(rows, [link], tool=tool)[:, 0], T_root[owner])
-        J = poe.jacobian(rows, link, "local_world_aligned", tool=tool)[:, :, chain.columns]
-        if position_only:
+        p, r = errors if errors is not None else s.errors(rows, s.T_root[owner])
+        J = s.poe.jacobian(rows, s.link, "local_world_aligned", tool=s.tool)[:, :, chain.columns]
+        if s.position_only:
             J = J[:, :3]
         sing = _singular(J) if J.shape[1] >= chain.n else np.ones(len(rows), bool)
         inside = np.all((rows >= model.lower_limits - LIMIT_TOLERANCE) & (rows <= model.upper_limits + LIMIT_TOLERANCE),
@@ -647,4 +675,4 @@ def _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam, method, co
         singular[owner, slot] = sing
         pe[owner, slot] = p
         re[owner, slot] = r
-    return AllSolutions(q, count, within, singular, pe, re, complete, fam, method)
+    return AllSolutions(q, count, within, singular, pe, re, complete, s.fam, method)

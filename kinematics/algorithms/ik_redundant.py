@@ -42,7 +42,7 @@ from ..model.robot import Limits, RobotModel
 from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
 from .ik import pose_errors
-from .ik_all import SINGULAR, _all_copies, all_solutions  # noqa: F401 (SINGULAR: the answers' flag)
+from .ik_all import SINGULAR, all_copies, all_solutions  # noqa: F401 (SINGULAR: the answers' flag)
 from .ik_families import Chain, detect, reduce_chain, validate_locked
 
 #: what ``select`` optimises: the distance to the seed (least), the normalised limit margin (largest),
@@ -360,7 +360,7 @@ def in_limit_copies(model: RobotModel, chain: Chain, q: np.ndarray, count: np.nd
     and their pair (R',)."""
     listed = np.arange(q.shape[1])[None, :] < count[:, None]
     owner = np.repeat(np.arange(len(count)), count)
-    return _all_copies(model, chain, q[listed], owner)
+    return all_copies(model, chain, q[listed], owner)
 
 
 def _wrapped(d: np.ndarray, revolute: np.ndarray) -> np.ndarray:

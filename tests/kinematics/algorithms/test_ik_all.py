@@ -180,8 +180,9 @@ def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catal
     model = moved_origins(catalogue.get("ur5"), seed=3)
     Q, T = _targets(model, "tool0", 600, seed=2026)
     chain, fam, real = ik_all._chain_family(model, "tool0", None, None)
-    _, found, *_, nominal = ik_all._closed_form_solutions(model, chain, fam, real, T, np.zeros((len(T), 6)),
-                                                          1e-6, 1e-6)
+    problem = ik_all._Problem(model, compile_model(model), "tool0", None, chain, fam, real, T, np.zeros((len(T), 6)),
+                              None, "pose", (1e-6, 1e-6), ik_all.SEARCH_SEEDS)
+    _, found, *_, nominal = ik_all._closed_form_solutions(problem)
     short = np.flatnonzero(found < nominal)[:6]
     assert short.size >= 2, "the calibration must move some targets across a branch point"
     sol = all_solutions(model, "tool0", T[short], limits="ignore")

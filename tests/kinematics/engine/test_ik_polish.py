@@ -39,7 +39,7 @@ def test_compiled_copies_equal_the_reference(rid, link, locked):
     rows = np.random.default_rng(0).uniform(-np.pi, np.pi, size=(60, model.dof))
     owner = np.arange(60) // 3
     ref = [(o, c) for s, o in zip(rows, owner) for c in ik_all._copies(model, chain, s)]
-    got, got_owner = ik_all._all_copies(model, chain, rows, owner)
+    got, got_owner = ik_all.all_copies(model, chain, rows, owner)
     assert len(ref) == len(got) > 0
     assert np.array_equal(np.array([c for _, c in ref]), got)
     assert np.array_equal(np.array([o for o, _ in ref]), got_owner)
