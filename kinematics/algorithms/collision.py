@@ -259,6 +259,25 @@ def _boxes_overlap(Wa, ha, Wb, hb) -> np.ndarray:
     return ~apart
 
 
+@dataclass
+class _NarrowPhase:
+    """What one :meth:`CollisionModel.check` call's narrow phase keeps from chunk to chunk: the link
+    pairs ``P`` (P, 2), coal's requests (``creq`` on the shapes, ``hreq`` on their hulls), the
+    collision functors made so far per shape pair (``functors``), the two transforms it hands to coal
+    (shape a's frame is the identity ``tf_id``, shape b is placed by ``tf_b``), and the answers it
+    writes: ``colliding`` (N,) and ``hits`` (the colliding link pairs of each configuration)."""
+
+    P: np.ndarray
+    stop_at_first: bool
+    creq: object
+    hreq: object
+    colliding: np.ndarray
+    hits: list
+    functors: dict
+    tf_id: object
+    tf_b: object
+
+
 class CollisionModel:
     """coal objects of one model's collision geometry, with bounding spheres (immutable; share it
     between threads: every call makes its own transforms and requests).
@@ -355,12 +374,15 @@ class CollisionModel:
                     owner.append(k)
         return np.array(sp, dtype=np.intp).reshape(-1, 2), np.array(owner, dtype=np.intp)
 
-    def _narrow_phase(self, R_ab, p_ab, cn, K, cq, A, B, start, nP, narrow, creq, hreq, tf_id, tf_b,
-                      colliding, hits, stop_at_first, P) -> None:
-        """coal on the candidates of one chunk: shape ``B[c]`` placed at ``(R_ab[c], p_ab[c])`` in
-        shape ``A[c]``'s frame, configuration ``start + cn[c]``, link pair ``K[c]``, shape pair
-        ``cq[c]``; the hulls first where a shape has one, the shapes themselves if they touch."""
+    def _narrow_phase(self, call: _NarrowPhase, start: int, R_ab, p_ab, cn, K, cq, A, B) -> None:
+        """coal on the candidates of one chunk (configurations from ``start``): shape ``B[c]`` placed at
+        ``(R_ab[c], p_ab[c])`` in shape ``A[c]``'s frame, configuration ``start + cn[c]``, link pair
+        ``K[c]``, shape pair ``cq[c]``; the hulls first where a shape has one, the shapes themselves if
+        they touch."""
         objs, bounds, links = self._objects, self._bounds, self.links
+        narrow, creq, hreq, tf_id, tf_b = call.functors, call.creq, call.hreq, call.tf_id, call.tf_b
+        colliding, hits, stop_at_first, P = call.colliding, call.hits, call.stop_at_first, call.P
+        nP = len(P)
         done = bytearray((max(cn, default=-1) + 1) * nP)  # (row, link pair) found colliding
         res = coal.CollisionResult()
         fresh = True  # coal adds contacts to a result and stops once it holds num_max_contacts: clear after a hit
@@ -431,7 +453,8 @@ class CollisionModel:
         tf_a, tf_b = coal.Transform3s(), coal.Transform3s()
         tf_id = coal.Transform3s()  # the narrow phase places shape b in shape a's frame
         cres, dres = coal.CollisionResult(), coal.DistanceResult()
-        narrow: dict[tuple[int, int], tuple] = {}  # per shape pair: coal's collision functors (this call's own)
+        # per shape pair: coal's collision functors (this call's own)
+        call = _NarrowPhase(P, stop_at_first, creq, hreq, colliding, hits, {}, tf_id, tf_b)
         reach = float(margin) + BROAD_PHASE_SLACK
         objs, bounds = self._objects, self._bounds
         links = self.links
@@ -445,7 +468,6 @@ class CollisionModel:
                 gap = np.linalg.norm(C[:, SP[:, 0]] - C[:, SP[:, 1]], axis=2) - self._radii[SP[:, 0]] - self._radii[SP[:, 1]]
             else:
                 gap = np.zeros((n_rows, 0))
-            nP = len(P)
             cq, cn = np.nonzero(gap.T <= reach)  # pair by pair: one pair's meshes stay in the caches
             if len(cn):
                 A, B = SP[cq, 0], SP[cq, 1]
@@ -456,8 +478,8 @@ class CollisionModel:
                 Ra = Wa[:, :3, :3]
                 R_ab = list(Ra.transpose(0, 2, 1) @ Wb[:, :3, :3])
                 p_ab = list(np.einsum("kji,kj->ki", Ra, Wb[:, :3, 3] - Wa[:, :3, 3]))
-                self._narrow_phase(R_ab, p_ab, cn.tolist(), owner[cq].tolist(), cq.tolist(), A.tolist(), B.tolist(),
-                                   start, nP, narrow, creq, hreq, tf_id, tf_b, colliding, hits, stop_at_first, P)
+                self._narrow_phase(call, start, R_ab, p_ab, cn.tolist(), owner[cq].tolist(), cq.tolist(), A.tolist(),
+                                   B.tolist())
             if distance and len(SP):
                 for n in range(n_rows):
                     order = np.argsort(gap[n], kind="stable")
