@@ -564,7 +564,7 @@ def _closed_form_solutions(s: _Problem):
 
     def reference(a, b):  # a near family: the ideal chain's own count
         candidates(a, b, 0.0, cand0, count0)
-        ik_polish.nominal(cand0, count0, goals, *ideal_chain, *s.tolerances, DUPLICATE, a, b, nominal)
+        ik_polish.nominal(cand0, count0, goals, ideal_chain, (*s.tolerances, DUPLICATE), a, b, nominal)
 
     out = _compiled_pass(s, cand, ccount, fam.reversed, NEAR_PASS if fam.near else EXACT_PASS,
                          before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),

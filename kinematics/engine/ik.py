@@ -242,19 +242,24 @@ def _damped_step(J, e, rows, free, lam, A, g, x):
 
 
 @nb.njit(**_JIT)
-def solve(Q, targets, lower, upper, wrap, angular, cols, jint, jflt, path, D, mode, tol_p, tol_r, max_iter, restarts,
-          lam_min, polish, stall, rng, perr, rerr, iters):
+def solve(Q, targets, joints, chain, settings, rng, outputs):
     """Inverse kinematics of every row: ``Q`` (N, dof) holds the seeds and receives the answers.
 
-    targets: (N, 4, 4) ``T_root_link``. lower, upper: (dof,) limits (±inf: none); wrap: (dof,)
-    continuous joints; angular: (dof,) revolute and continuous joints (a whole turn changes
-    nothing). cols: (nv,) the q columns the path moves. jint, jflt, path, D: as the Jacobian
-    kernel. mode: MODE_POSE or MODE_POSITION. tol_p, tol_r: the tolerances; an attempt goes on
-    until its errors are within ``polish`` times them (a margin), but a solution within them
-    ends the search. stall: an attempt whose error has not fallen by 1 % in this many steps is
-    stuck (a local minimum, or pinned at a limit) and ends early. rng: (N,) uint64 stream seeds.
-    perr, rerr, iters: (N,) written: errors of the answer and steps taken.
+    targets: (N, 4, 4) ``T_root_link``. ``joints = (lower, upper, wrap, angular)``: (dof,) limits
+    (±inf: none), continuous joints, revolute and continuous joints (a whole turn changes nothing).
+    ``chain = (cols, jint, jflt, path, D)``: (nv,) the q columns the path moves, then the path as
+    the Jacobian kernel takes it. ``settings = (mode, tol_p, tol_r, max_iter, restarts, lam_min,
+    polish, stall)``: mode MODE_POSE or MODE_POSITION; the tolerances (an attempt goes on until its
+    errors are within ``polish`` times them, a margin, but a solution within them ends the search);
+    steps per attempt, restarts and the least damping; ``stall``: an attempt whose error has not
+    fallen by 1 % in this many steps is stuck (a local minimum, or pinned at a limit) and ends
+    early. rng: (N,) uint64 stream seeds. ``outputs = (perr, rerr, iters)``: (N,) written, the
+    errors of the answer and the steps taken.
     """
+    lower, upper, wrap, angular = joints
+    cols, jint, jflt, path, D = chain
+    mode, tol_p, tol_r, max_iter, restarts, lam_min, polish, stall = settings
+    perr, rerr, iters = outputs
     N, dof = Q.shape
     nv = cols.shape[0]
     rows = 3 if mode == MODE_POSITION else 6

@@ -248,10 +248,21 @@ def close_rows(x, y, columns, rev, tol):
     return True
 
 
+@nb.njit(**_JIT)
+def scratch(n):
+    """The work arrays of :func:`chain_error` and :func:`levenberg_marquardt` for a chain of ``n``
+    joints, as one tuple: ``(F, W, O, J, e, R, out, A, b, dq, trial, sn, cs)``."""
+    return (np.empty((4, 4)), np.empty((n, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty(6), np.empty((3, 3)),
+            np.empty(3), np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n))
+
+
 @nb.njit(inline="always", **_JIT)
-def chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out):
-    """The chain's end pose ``F`` at ``x`` (:func:`chain_fk`) and its error ``e`` to ``T``
-    (:func:`pose_error`); returns the position error (metres) and the rotation error (radians)."""
+def chain_error(chain, x, T, work):
+    """The end pose of ``chain = (h, r, rev, M)`` at ``x`` (:func:`chain_fk`, into ``work``'s ``F``) and
+    its error ``e`` to ``T`` (:func:`pose_error`); returns the position error (metres) and the rotation
+    error (radians). ``work``: :func:`scratch`."""
+    h, r, rev, M = chain
+    F, W, O, J, e, R, out, A, b, dq, trial, sn, cs = work
     chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
     pose_error(F, T, e, R, out)
     return (math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]),
@@ -259,8 +270,12 @@ def chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out):
 
 
 @nb.njit(**_JIT)
-def levenberg_marquardt(h, r, rev, M, T, x, steps, lam, damped, F, W, O, J, e, R, out, A, b, dq, trial, sn, cs):
-    """Up to ``steps`` LM steps of ``x`` (n,) towards ``T``; returns the final squared error (``F``, ``e`` at x)."""
+def levenberg_marquardt(chain, T, x, steps, lam, damped, work):
+    """Up to ``steps`` LM steps of ``x`` (n,) of ``chain = (h, r, rev, M)`` towards ``T`` from the
+    damping ``lam`` (``damped``: steps of at most 0.5 per joint); returns the final squared error
+    (``work``, :func:`scratch`: ``F``, ``e`` at x)."""
+    h, r, rev, M = chain
+    F, W, O, J, e, R, out, A, b, dq, trial, sn, cs = work
     n = x.shape[0]
     chain_fk(h, r, rev, M, x, F, W, O, sn, cs)
     cost = pose_error(F, T, e, R, out)
@@ -372,9 +387,10 @@ def _gram_index(a, b):
 
 
 @nb.njit(**_JIT)
-def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, X, F, S, TT, E, JL, Gm, lp, lq, lb):
+def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, lanes):
     """The cheap first look at every candidate of targets ``t0..t1``, one candidate per lane, in loops
-    LLVM vectorises over the lanes (the FK kernel's axis-frame products, :func:`lane_table`'s form):
+    LLVM vectorises over the lanes (the FK kernel's axis-frame products, :func:`lane_table`'s form).
+    ``lanes = (X, F, S, TT, E, JL, Gm, lp, lq, lb)``, the lane arrays, of which it writes
 
     - ``X`` (n, L): the candidates' joint values (mapped for a ``reversed_`` chain, revolute wrapped
       into (−π, π]), target by target, candidate by candidate;
@@ -385,6 +401,7 @@ def lane_stage(cand, ccount, reversed_, targets, rev, table, D, t0, t1, X, F, S,
       factor of ``JᵀJ`` (NaN where that factor breaks down, or n != 6: the scalar test decides).
 
     Returns the number of lanes used."""
+    X, F, S, TT, E, JL, Gm, lp, lq, lb = lanes
     n = rev.shape[0]
     m = 0
     for t in range(t0, t1):
@@ -500,18 +517,9 @@ def polish(cand, ccount, reversed_, targets, base, chain, settings, limits, a, b
     n = h.shape[0]
     C = Q.shape[1]
     dof = base.shape[1]
-    F = np.empty((4, 4))
-    W = np.empty((n, 3))
-    O = np.empty((n, 3))
-    J = np.empty((6, n))
-    e = np.empty(6)
-    R = np.empty((3, 3))
-    out = np.empty(3)
-    A = np.empty((n, n))
-    bb = np.empty(n)
-    dq = np.empty(n)
-    trial = np.empty(n)
-    sn, cs = np.empty(n), np.empty(n)
+    work = scratch(n)
+    F, W, O, J, e, R, out, A, bb, dq, trial, sn, cs = work
+    real = (h, r, rev, M)
     x = np.empty(n)
     kept = np.empty((C, n))
     group = max(1, min(LANE_TARGETS, LANE_CANDIDATES // max(1, cand.shape[1])))
@@ -519,9 +527,10 @@ def polish(cand, ccount, reversed_, targets, base, chain, settings, limits, a, b
     X, FL, S = np.empty((n, w)), np.empty((n, 12, w)), np.empty((2, n, w))
     TT, E, JL, Gm = np.empty((12, w)), np.empty((12, w)), np.empty((6 * n, w)), np.empty((21, w))
     lp, lq, lb = np.empty(w), np.empty(w), np.empty(w)
+    lanes = (X, FL, S, TT, E, JL, Gm, lp, lq, lb)
     for g0 in range(a, b_, group):
         g1 = min(g0 + group, b_)
-        lane_stage(cand, ccount, reversed_, targets, rev, table, D, g0, g1, X, FL, S, TT, E, JL, Gm, lp, lq, lb)
+        lane_stage(cand, ccount, reversed_, targets, rev, table, D, g0, g1, lanes)
         lane = 0
         for t in range(g0, g1):
             T = targets[t]
@@ -544,23 +553,20 @@ def polish(cand, ccount, reversed_, targets, base, chain, settings, limits, a, b
                 if quick:  # on its solution already: the lane's values
                     p, q = lp[l], lq[l]
                 else:
-                    p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                    p, q = chain_error(real, x, T, work)
                     if p + q > reach:  # a least-squares point of a branch that does not exist (an exact family)
                         continue
                     if not (p <= tight and q <= tight):
-                        cost = levenberg_marquardt(h, r, rev, M, T, x, steps, lam0, damped, F, W, O, J, e, R, out, A,
-                                                   bb, dq, trial, sn, cs)
+                        cost = levenberg_marquardt(real, T, x, steps, lam0, damped, work)
                         if damped and cost < 1e-4 and middle > 0:  # near a solution: undamped steps
-                            levenberg_marquardt(h, r, rev, M, T, x, middle, 1e-12, False, F, W, O, J, e, R, out, A,
-                                                bb, dq, trial, sn, cs)
+                            levenberg_marquardt(real, T, x, middle, 1e-12, False, work)
                         wrap(x, rev)
-                        p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                        p, q = chain_error(real, x, T, work)
                     if p + q > tight and p < 10.0 * ptol and q < 10.0 * rtol and final > 0:
                         # near a solution but not on it to machine precision (a double root converges only linearly)
-                        levenberg_marquardt(h, r, rev, M, T, x, final, 1e-12, False, F, W, O, J, e, R, out, A, bb,
-                                            dq, trial, sn, cs)
+                        levenberg_marquardt(real, T, x, final, 1e-12, False, work)
                         wrap(x, rev)
-                        p, q = chain_error(h, r, rev, M, x, T, F, W, O, sn, cs, e, R, out)
+                        p, q = chain_error(real, x, T, work)
                 if not (p <= ptol and q <= rtol):
                     continue
                 same = False
@@ -602,17 +608,13 @@ def polish(cand, ccount, reversed_, targets, base, chain, settings, limits, a, b
 
 
 @nb.njit(**_JIT)
-def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
-    """``count[t]``: the distinct candidates of target t (``a <= t < b_``) within the tolerances on the
-    chain ``h, r, rev, M`` itself (no polish)."""
+def nominal(cand, ccount, targets, chain, tolerances, a, b_, count):
+    """``count[t]``: the distinct candidates of target t (``a <= t < b_``) within the tolerances
+    ``(position, rotation, duplicate)`` on ``chain = (h, r, rev, M)`` itself (no polish)."""
+    h, r, rev, M = chain
+    ptol, rtol, dup = tolerances
     n = h.shape[0]
-    F = np.empty((4, 4))
-    W = np.empty((n, 3))
-    O = np.empty((n, 3))
-    e = np.empty(6)
-    R = np.empty((3, 3))
-    out = np.empty(3)
-    sn, cs = np.empty(n), np.empty(n)
+    work = scratch(n)
     kept = np.empty((cand.shape[1], n))
     every = np.arange(n)
     for t in range(a, b_):
@@ -624,7 +626,7 @@ def nominal(cand, ccount, targets, h, r, rev, M, ptol, rtol, dup, a, b_, count):
                     finite = False
             if not finite:
                 continue
-            p, q = chain_error(h, r, rev, M, cand[t, c], targets[t], F, W, O, sn, cs, e, R, out)
+            p, q = chain_error(chain, cand[t, c], targets[t], work)
             if not (p <= ptol and q <= rtol):
                 continue
             same = False

@@ -357,7 +357,6 @@ class Kernel:
         the path's q columns move. ``tool``:
         ``T_link_tool`` (4, 4): the targets are the tool frame's poses; the solver is unchanged, it
         places ``F_last · D`` and the tool only turns the link's constant ``D`` into ``D @ T_link_tool``."""
-        lower, upper, wrap, angular = joints
         position_only, tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall = settings
         path, D = self.path_plan(link_index)
         D = with_tool(D, tool)
@@ -368,12 +367,14 @@ class Kernel:
         if N == 0 or len(cols) == 0:  # nothing moves the link: the seeds stay (the caller measures them)
             return Q, perr, rerr, steps
         targets = np.ascontiguousarray(targets, dtype=np.float64)
-        mode = ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE
+        kernel_settings = (ik_kernel.MODE_POSITION if position_only else ik_kernel.MODE_POSE, float(tol_position),
+                           float(tol_rotation), int(max_iterations), int(restarts), float(damping), float(polish),
+                           int(stall))
+        chain = (cols, self._jint, self._jflt, path, D)
 
         def solve(a, b):  # each target is solved on its own: the split over threads changes no bit
-            ik_kernel.solve(Q[a:b], targets[a:b], lower, upper, wrap, angular, cols, self._jint, self._jflt, path, D,
-                            mode, tol_position, tol_rotation, max_iterations, restarts, damping, polish, stall,
-                            streams[a:b], perr[a:b], rerr[a:b], steps[a:b])
+            ik_kernel.solve(Q[a:b], targets[a:b], joints, chain, kernel_settings, streams[a:b],
+                            (perr[a:b], rerr[a:b], steps[a:b]))
 
         run_rows(solve, N, min_rows=IK_PIECE_ROWS, piece_rows=IK_PIECE_ROWS)
         return Q, perr, rerr, steps

@@ -101,17 +101,17 @@ def test_the_lane_stage_measures_as_the_scalar_path(rid, link, locked):
     X, F, S = np.empty((n, L)), np.empty((n, 12, L)), np.empty((2, n, L))
     TT, E, JL, Gm = np.empty((12, L)), np.empty((12, L)), np.empty((6 * n, L)), np.empty((21, L))
     lp, lq, lb = np.empty(L), np.empty(L), np.empty(L)
-    m = ik_polish.lane_stage(cand, ccount, False, T, chain.revolute, table, D, 0, N, X, F, S, TT, E, JL, Gm, lp, lq, lb)
+    m = ik_polish.lane_stage(cand, ccount, False, T, chain.revolute, table, D, 0, N, (X, F, S, TT, E, JL, Gm, lp, lq, lb))
     assert m == N * 8
-    Fs, W, O, J, A = np.empty((4, 4)), np.empty((n, 3)), np.empty((n, 3)), np.empty((6, n)), np.empty((n, n))
-    e, R, out, sn, cs = np.empty(6), np.empty((3, 3)), np.empty(3), np.empty(n), np.empty(n)
+    work = ik_polish.scratch(n)
+    Fs, W, O, J, A = *work[:4], work[7]
     small = decided = 0
     for lane in range(m):
         t, c = divmod(lane, 8)
         x = cand[t, c].copy()
         ik_polish.wrap(x, chain.revolute)
         assert np.array_equal(X[:, lane], x)
-        p, q = ik_polish.chain_error(chain.h, chain.r, chain.revolute, chain.M, x, T[t], Fs, W, O, sn, cs, e, R, out)
+        p, q = ik_polish.chain_error((chain.h, chain.r, chain.revolute, chain.M), x, T[t], work)
         assert lp[lane] == pytest.approx(p, rel=1e-9, abs=1e-15)
         if np.isnan(lq[lane]):  # the lane leaves large rotation errors to the scalar path
             assert q > 0.9 * ik_polish.LANE_SMALL_ANGLE
