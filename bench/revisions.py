@@ -66,7 +66,7 @@ for robot, link, locked in (("ur5", "tool0", None), ("panda", "panda_link8", {"p
         b = a.copy()
         b[:3, 3] += [0.0, 0.05, 0.02]
         best(f"{robot} ik path (2 waypoints, a 50-step line)",
-             lambda: kinematics.ik_path(model, [a, b], link=link, seed=Q[0], step={"position": 0.001}),
+             lambda: kinematics.ik_path(model, np.stack([a, b]), link=link, seed=Q[0], step={"position": 0.001}),
              repeats=3)
 print(json.dumps(out))
 '''
@@ -82,8 +82,9 @@ def checkout(rev: str, where: Path) -> Path:
 def run(tree: Path) -> dict[str, float]:
     env = dict(os.environ, PYTHONPATH=str(tree), KIN_THREADS="1", OPENBLAS_NUM_THREADS="1",
                OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    done = subprocess.run([sys.executable, "-c", CHILD], cwd=tree, env=env, check=True, capture_output=True,
-                          text=True)
+    done = subprocess.run([sys.executable, "-c", CHILD], cwd=tree, env=env, capture_output=True, text=True)
+    if done.returncode:
+        raise SystemExit(f"the calls failed on {tree.name}:\n{done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 

@@ -173,9 +173,13 @@ def three_parallel(G, h_, r_, c_, width, Q, count, flag):
 
 
 @nb.njit(**_JIT)
-def _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, fpos, h0, h1, h2, h3, h4, h5, u):
-    """The orientation part of a spherical wrist for one (q1, q2, q3): up to two candidates at n.
-    ``back3``: (cos, sin) of the rotations by −q1, −q2, −q3, as the position part found them."""
+def _wrist_part(out, t, n, g, arm, back3, prismatic3, fpos, axes, u):
+    """The orientation part of a spherical wrist for one ``arm = (q1, q2, q3)``: up to two candidates
+    at n of ``out = (Q, flag)``. ``back3``: (cos, sin) of the rotations by −q1, −q2, −q3, as the
+    position part found them; ``axes``: the six joint axes h0..h5."""
+    Q, flag = out
+    q1, q2, q3 = arm
+    h0, h1, h2, h3, h4, h5 = axes
     c1, s1, c2, s2, c3, s3 = back3
 
     def back(x):
@@ -204,6 +208,7 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
     """Candidates of the spherical-wrist family (the position part by ``position``, ``prismatic3`` for a
     prismatic joint 3) for targets ``G`` (N, 4, 4) into ``Q``, ``count``, ``flag``."""
     h0, h1, h2, h3, h4, h5 = vec(h_[0]), vec(h_[1]), vec(h_[2]), vec(h_[3]), vec(h_[4]), vec(h_[5])
+    axes = (h0, h1, h2, h3, h4, h5)
     r0, r1, r2 = vec(r_[0]), vec(r_[1]), vec(r_[2])
     c = vec(c_)
     u = perpendicular(h5)
@@ -223,8 +228,8 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     c3, s3 = math.cos(q3), math.sin(q3)
                     x = about_cs(h2, r2, c3, s3, c)
                     q2, c2, s2, f2 = sp1_cs(sub(x, r1), sub(pp, r1), h1)
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, (c1, s1, c2, -s2, c3, -s3), prismatic3,
-                                    max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+                    n = _wrist_part((Q, flag), t, n, g, (q1, q2, q3), (c1, s1, c2, -s2, c3, -s3), prismatic3,
+                                    max(f1, f2, f3), axes, u)
         elif position == 1 or position == 2:  # axes 1, 2 meet at o
             o = r0
             d = norm(sub(p, o))
@@ -255,8 +260,7 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     q2 = b0 if i == 0 else b1
                     # by −q1 = θ1 of subproblem 2, by −q2 = −θ2
                     back3 = ((cs[0], cs[1], cs[4], -cs[5]) if i == 0 else (cs[2], cs[3], cs[6], -cs[7])) + (c3, -s3)
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, prismatic3, max(f2, f3), h0, h1, h2, h3, h4,
-                                    h5, u)
+                    n = _wrist_part((Q, flag), t, n, g, (q1, q2, q3), back3, prismatic3, max(f2, f3), axes, u)
         else:  # axes 1 ∥ 2
             t3a, t3b, n3, f3 = sp4_seeds(h0, sub(c, r2), h2, dot(h0, sub(p, r2)), width)
             for j in range(n3):
@@ -269,8 +273,8 @@ def spherical_wrist(G, h_, r_, prismatic3, c_, position, width, Q, count, flag):
                     c2, s2 = math.cos(q2), math.sin(q2)
                     y = about_cs(h1, r1, c2, s2, x)
                     q1, c1, s1, f1 = sp1_cs(sub(y, r0), sub(p, r0), h0)
-                    n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, (c1, -s1, c2, -s2, c3, -s3), prismatic3,
-                                    max(f1, f2, f3), h0, h1, h2, h3, h4, h5, u)
+                    n = _wrist_part((Q, flag), t, n, g, (q1, q2, q3), (c1, -s1, c2, -s2, c3, -s3), prismatic3,
+                                    max(f1, f2, f3), axes, u)
         count[t] = n
 
 
@@ -304,6 +308,7 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
     sample step would be missed; a root in the least-squares continuation is not a solution, and the
     caller's FK check drops it."""
     h0, h1, h2, h3, h4, h5 = vec(h_[0]), vec(h_[1]), vec(h_[2]), vec(h_[3]), vec(h_[4]), vec(h_[5])
+    axes = (h0, h1, h2, h3, h4, h5)
     r0, r1, r2 = vec(r_[0]), vec(r_[1]), vec(r_[2])
     c = vec(c_)
     u = perpendicular(h5)
@@ -333,7 +338,7 @@ def spherical_wrist_search(G, h_, r_, c_, samples, Q, count, flag):
                     q2, f2 = sp1(sub(x, r1), sub(pp, r1), h1)
                     if n + 2 <= Q.shape[1]:
                         back3 = (math.cos(q1), -math.sin(q1), math.cos(q2), -math.sin(q2), math.cos(q3), -math.sin(q3))
-                        n = _wrist_part(Q, flag, t, n, g, q1, q2, q3, back3, False, f2, h0, h1, h2, h3, h4, h5, u)
+                        n = _wrist_part((Q, flag), t, n, g, (q1, q2, q3), back3, False, f2, axes, u)
                 a, fa = bq, fb
         count[t] = n
 

@@ -34,6 +34,7 @@ import math
 import numba as nb
 import numpy as np
 
+# the FK kernel's joint frames and sine/cosine row, private to the engine: the polish evaluates the same frames
 from .compiled import J_CZ, _joint_frames, _sincos_row
 from .ik import rotation_log
 from .plans import axis_frame

@@ -320,3 +320,9 @@ def require_one_dof(model: RobotModel, what: str) -> PoEModel:
         raise UnsupportedJointError(f"{what} is not available for models with {' or '.join(kinds)} joints "
                                     f"(model {model.name!r}); FK, Jacobians, velocities and IK are")
     return _compiled(model)
+
+
+def compiled_counts() -> tuple[int, int]:
+    """``(compiled, cached)``: the models this process has compiled so far, and the compiled forms it
+    holds now (one per live model)."""
+    return _compiled.built, len(_compiled)

@@ -43,9 +43,9 @@ def load_model(*, model_id: str | None = None, urdf: str | None = None, dh: str 
 def compiled_models() -> tuple[int, int]:
     """``(compiled, cached)``: how many models this process has compiled to their PoE form so far,
     and how many compiled forms it holds now (one per live model). For monitoring."""
-    from ..engine.poe import _compiled
+    from ..engine.poe import compiled_counts
 
-    return _compiled.built, len(_compiled)
+    return compiled_counts()
 
 
 def screws(model: RobotModel):

@@ -31,6 +31,7 @@ from .ik_all import ik_family, ik_path
 from .jacobian import jacobian
 from .query import model_for
 from .task import task
+from .trajectory import TrajectoryLimits, ToolSpeed, trajectory
 from .velocity import velocity
 from .workspace import workspace
 
@@ -95,6 +96,28 @@ def _every_solution() -> None:
     ik_path(arm, np.stack([start, end]), seed=q)
 
 
+def _redundancy() -> None:
+    # a 7-joint arm's self-motion: slices, intervals and the best point (algorithms/ik_redundant.py,
+    # ik_self_motion.py): the Panda, its default parameter (q7, a spherical-shoulder closed form)
+    panda = default_catalogue().get("panda")
+    q = np.array([0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.7, 0.0])
+    target = fk(panda, q, links=["panda_link8"]).poses[0, 0]
+    ik(panda, target, link="panda_link8", solutions="all",
+       redundancy={"values": [0.7], "intervals": True, "select": "margin"})
+
+
+def _trajectories() -> None:
+    # the time-optimal passes, the jerk-limited profile and a tool's speed (algorithms/trajectory/)
+    arm = default_catalogue().get("ur5_dh")
+    waypoints = [[0.0] * 6, [0.3, -0.4, 0.5, 0.1, 0.2, 0.0], [0.6, -0.2, 0.3, 0.0, 0.4, 0.1]]
+    for interpolation in ("spline", "linear"):
+        trajectory(arm, waypoints, TrajectoryLimits(velocity=1.0, acceleration=2.0), interpolation=interpolation,
+                   blend=0.05, rate=20)
+    trajectory(arm, waypoints, TrajectoryLimits(velocity=1.0, acceleration=2.0, jerk=20.0), rate=20)
+    trajectory(arm, waypoints, TrajectoryLimits(velocity=1.0, acceleration=2.0,
+                                                tool_speed=ToolSpeed(link=arm.links[-1], max=0.5)), rate=20)
+
+
 def _floating_base() -> None:
     # the kernels below a floating root joint (engine/rooted.py)
     model = parse_urdf(_ONE_JOINT_URDF)
@@ -150,6 +173,8 @@ STEPS: tuple[tuple[str, Callable[[], None]], ...] = (
     ("forward kinematics, Jacobians, velocity, workspace", _basics),
     ("one IK solution, task vectors", _one_solution),
     ("every IK solution (closed forms, polish), IK families", _every_solution),
+    ("a 7-joint arm's self-motion (slices, intervals, best point)", _redundancy),
+    ("trajectories (time-optimal, jerk-limited, tool speed)", _trajectories),
     ("a floating base", _floating_base),
     ("self-collision, collision-free IK and paths", _if_installed(_collisions_and_paths)),
     ("calibration poses", _if_installed(_calibration)),

@@ -18,6 +18,7 @@ from numba.core.registry import CPUDispatcher
 import kinematics
 from kinematics import default_catalogue, fk, ik, jacobian, task, velocity, workspace
 from kinematics.usecases import calibration_poses, collision, ik_family, ik_path
+from kinematics.usecases.trajectory import ToolSpeed, TrajectoryLimits, trajectory
 
 def counts():
     return {f"{m.__name__}.{k}": len(v.signatures) for m in list(sys.modules.values())
@@ -50,6 +51,11 @@ operations = {
     "collision": lambda: collision(panda, [0.0] * panda.dof, samples=100, distance=True),
     "calibration poses": lambda: calibration_poses(ur5, 8, link="tool0"),
     "workspace": lambda: workspace(ur5, "tool0", samples=500),
+    "ik self-motion": lambda: ik(panda, P, link="panda_hand", solutions="all",
+                                 redundancy={"values": [0.1, 0.4], "intervals": True, "select": "nearest"}),
+    "trajectory": lambda: trajectory(ur5, [q, q + 0.3, q - 0.2], TrajectoryLimits(acceleration=2.0)),
+    "trajectory, jerk-limited, tool speed": lambda: trajectory(
+        ur5, [q, q + 0.3], TrajectoryLimits(acceleration=2.0, jerk=30.0, tool_speed=ToolSpeed("tool0", 0.3))),
 }
 added = {}
 for name, run in operations.items():
