@@ -53,9 +53,9 @@ operations = {
     "workspace": lambda: workspace(ur5, "tool0", samples=500),
     "ik self-motion": lambda: ik(panda, P, link="panda_hand", solutions="all",
                                  redundancy={"values": [0.1, 0.4], "intervals": True, "select": "nearest"}),
-    "trajectory": lambda: trajectory(ur5, [q, q + 0.3, q - 0.2], TrajectoryLimits(acceleration=2.0)),
+    "trajectory": lambda: trajectory(ur5, np.stack([q, q + 0.3, q - 0.2]), TrajectoryLimits(acceleration=2.0)),
     "trajectory, jerk-limited, tool speed": lambda: trajectory(
-        ur5, [q, q + 0.3], TrajectoryLimits(acceleration=2.0, jerk=30.0, tool_speed=ToolSpeed("tool0", 0.3))),
+        ur5, np.stack([q, q + 0.3]), TrajectoryLimits(acceleration=2.0, jerk=30.0, tool_speed=ToolSpeed("tool0", 0.3))),
 }
 added = {}
 for name, run in operations.items():
