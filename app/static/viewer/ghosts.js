@@ -13,12 +13,18 @@ import * as THREE from "three";
 import { api } from "./api.js";
 import { $, GHOST_COLORS, GHOST_DEBOUNCE_MS, GHOST_MAX_DRAWN, GHOST_OPACITY, state } from "./config.js";
 import { ik, ikTargetPose } from "./ik.js";
-import { currentQ, linkGroups, loadToken, model, modelSize, setAll, sliders } from "./robot.js";
+import { currentQ, setAll } from "./robot.js";
 import { Z_AXIS, camera, gizmo, matrixFromRows, renderer, requestRender, scene } from "./scene.js";
+import { current, on } from "./state.js";
 
 export const ghostRoot = new THREE.Group();
 ghostRoot.name = "ik-ghosts";
 scene.add(ghostRoot);
+current.framed.push((box) => {           // a camera fit frames the ghosts shown too
+  if (!ghostRoot.children.length) return;
+  ghostRoot.updateMatrixWorld(true);
+  box.expandByObject(ghostRoot);
+});
 
 const ghosts = {
   seq: 0,               // the latest request; older answers are dropped
@@ -66,7 +72,7 @@ export function clearGhosts() {
 }
 
 function ghostsWanted() {
-  return ik.enabled && $("ghost-enable").checked && model && model.joint_names.length > 0;
+  return ik.enabled && $("ghost-enable").checked && current.model && current.model.joint_names.length > 0;
 }
 
 /** The target moved (or the options changed): ask for every solution once it rests. */
@@ -81,16 +87,16 @@ export function requestGhosts() {
 /** The Lock picker lists the model's joints (filled when the model changes). */
 function ensureLockOptions() {
   const select = $("ghost-locked");
-  if (select.dataset.model === model.id) return;
+  if (select.dataset.model === current.model.id) return;
   select.replaceChildren(new Option("none", ""));
-  for (const name of model.joint_names) select.appendChild(new Option(name, name));
-  select.dataset.model = model.id;
+  for (const name of current.model.joint_names) select.appendChild(new Option(name, name));
+  select.dataset.model = current.model.id;
 }
 
 /** `{joint: value}` of the Lock picker, the joint held at its current value, or null. */
 function lockedJoints() {
   const name = $("ghost-locked").value;
-  const slider = sliders.find((s) => s.name === name);
+  const slider = current.sliders.find((s) => s.name === name);
   return slider ? { [name]: slider.value } : null;
 }
 
@@ -126,11 +132,11 @@ function familyText(f) {
 async function sendGhosts() {
   if (!ghostsWanted()) return;
   const seq = ghosts.seq;
-  const token = loadToken;
-  const id = model.id;
+  const token = current.loadToken;
+  const id = current.model.id;
   const link = state.selectedLink;
   const limits = $("ghost-limits").value;
-  const stale = () => seq !== ghosts.seq || token !== loadToken;
+  const stale = () => seq !== ghosts.seq || token !== current.loadToken;
   if ($("ik-mode").value !== "pose") {
     disposeGhosts();
     $("ghost-list").replaceChildren();
@@ -213,14 +219,14 @@ let ballGeometry = null;
 let rodSize = 0;
 
 function ghostGeometries() {
-  if (rodSize !== modelSize) {
+  if (rodSize !== current.modelSize) {
     if (rodGeometry) { rodGeometry.dispose(); ballGeometry.dispose(); }
-    const r = modelSize * 0.011;
+    const r = current.modelSize * 0.011;
     rodGeometry = new THREE.CylinderGeometry(r, r, 1, 10);
     rodGeometry.rotateX(Math.PI / 2);
     rodGeometry.translate(0, 0, 0.5);
     ballGeometry = new THREE.SphereGeometry(r * 1.8, 12, 8);
-    rodSize = modelSize;
+    rodSize = current.modelSize;
   }
   return [rodGeometry, ballGeometry];
 }
@@ -236,7 +242,7 @@ function drawGhosts(posesList) {
     const ghost = new THREE.Group();
     ghost.name = `ghost-${index}`;
     ghost.userData = { index, material };
-    for (const [link, group] of Object.entries(linkGroups)) {
+    for (const [link, group] of Object.entries(current.linkGroups)) {
       if (!poses[link]) continue;
       const copy = group.clone(true);
       for (const triad of copy.children.filter((c) => c.name === "triad")) copy.remove(triad);
@@ -246,7 +252,7 @@ function drawGhosts(posesList) {
       copy.matrix.copy(matrixFromRows(poses[link].matrix));
       ghost.add(copy);
     }
-    for (const joint of model.joints) {
+    for (const joint of current.model.joints) {
       const a = new THREE.Vector3(...poses[joint.parent].position);
       const b = new THREE.Vector3(...poses[joint.child].position);
       const length = a.distanceTo(b);
@@ -297,7 +303,7 @@ export function chooseGhost(index) {
   const s = ghosts.solutions[index];
   if (!s) return false;
   const byName = Object.fromEntries(ghosts.jointNames.map((name, i) => [name, s.q[i]]));
-  setAll(sliders.map((sl) => (Number.isFinite(byName[sl.name]) ? byName[sl.name] : sl.value)), { fromIk: true });
+  setAll(current.sliders.map((sl) => (Number.isFinite(byName[sl.name]) ? byName[sl.name] : sl.value)), { fromIk: true });
   ghosts.chosen = index;
   for (const ghost of ghostRoot.children) {
     ghost.userData.material.opacity = ghost.userData.index === index ? GHOST_OPACITY / 3 : GHOST_OPACITY;
@@ -370,6 +376,8 @@ renderer.domElement.addEventListener("pointerup", (e) => {
   if (index >= 0) chooseGhost(index);
 });
 
+on("target-moved", () => requestGhosts());   // ik.js: once the target rests (debounced)
+on("ik-disabled", () => clearGhosts());
 $("ghost-enable").addEventListener("change", () => requestGhosts());
 $("ghost-limits").addEventListener("change", () => requestGhosts());
 $("ghost-locked").addEventListener("change", () => requestGhosts());
