@@ -1,6 +1,8 @@
 // Every IK solution of the target as a translucent ghost arm: POST /models/{id}/ik with
 // solutions "all", GET /models/{id}/ik/family, FK of the solutions, and (models with collision
-// geometry) POST /models/{id}/collision to tint the colliding ones red.
+// geometry) POST /models/{id}/collision to tint the colliding ones red. On a redundant chain with no
+// joint locked the solutions are infinitely many: the target goes to self-motion.js (event
+// "self-motion"), which asks slice by slice and has them drawn here (showSolutions).
 // (A module of the model viewer; viewer.js is the entry point.)
 //
 // A ghost is a copy of what robot.js draws for each link (its visuals and meshes, sharing their
@@ -15,7 +17,7 @@ import { $, GHOST_COLORS, GHOST_DEBOUNCE_MS, GHOST_MAX_DRAWN, GHOST_OPACITY, sta
 import { ik, ikTargetPose } from "./ik.js";
 import { currentQ, setAll } from "./robot.js";
 import { Z_AXIS, camera, gizmo, matrixFromRows, renderer, requestRender, scene } from "./scene.js";
-import { current, on } from "./state.js";
+import { current, emit, on } from "./state.js";
 
 export const ghostRoot = new THREE.Group();
 ghostRoot.name = "ik-ghosts";
@@ -67,6 +69,7 @@ export function clearGhosts() {
   $("ghost-list").replaceChildren();
   setGhostStatus("");
   state.ghosts = null;
+  emit("self-motion", null);
   updateBusy();
   requestRender();
 }
@@ -142,38 +145,72 @@ async function sendGhosts() {
     $("ghost-list").replaceChildren();
     setGhostStatus("Every solution needs a pose target (Solve: pose).", "warn");
     state.ghosts = { count: null, error: "position target", drawn: 0, solutions: [] };
+    emit("self-motion", null);
     return;
   }
   ensureLockOptions();
   const locked = lockedJoints();
-  const body = { link, target: ikTargetPose(), seed: currentQ(), solutions: "all", limits };
+  const target = ikTargetPose();
+  const seed = currentQ();
+  const body = { link, target, seed, solutions: "all", limits };
   if (locked) body.locked = locked;
   ghosts.inFlight += 1;
   state.ghostRequests += 1;
   updateBusy();
   setGhostStatus("Every solution: solving…");
   try {
-    const [answer, family] = await Promise.all([
-      api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body }),
-      familyOf(id, link, locked).catch(() => null),
-    ]);
+    const family = await familyOf(id, link, locked).catch(() => null);
     if (stale()) return;
+    if (family && family.redundant && !locked) {   // a self-motion: asked for and drawn slice by slice
+      emit("self-motion", { link, target, seed, limits, family });
+      return;
+    }
+    emit("self-motion", null);
+    const answer = await api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body });
+    if (stale()) return;
+    await showSolutions(answer, { family, limits, link, seed, locked });
+  } catch (err) {
+    if (stale()) return;
+    // Not every chain has a finite set (a position target, 8 free joints): said here, no banner.
+    disposeGhosts();
+    $("ghost-list").replaceChildren();
+    setGhostStatus(`Every solution: ${err.message.replace(/^POST \S+: /, "")}`, "warn");
+    state.ghosts = { count: null, error: err.message, drawn: 0, solutions: [] };
+  } finally {
+    ghosts.inFlight -= 1;
+    state.ghostResponses += 1;
+    updateBusy();
+  }
+}
+
+/** Draw the solutions of `answer` (POST /ik, solutions "all") as ghosts, tinted by POST /collision,
+ * and list them; `info`: the family answer (or null: the answer's family is named), limits, link,
+ * seed, locked joints, and for a self-motion slice `label` ("at q7 = 0.700") and `parameter`.
+ * Resolves true once drawn, false when the target or the model changed meanwhile. */
+export async function showSolutions(answer, { family = null, limits, link, seed, locked = null, label = "", parameter = null }) {
+  const seq = ghosts.seq;
+  const token = current.loadToken;
+  const id = current.model.id;
+  const stale = () => seq !== ghosts.seq || token !== current.loadToken;
+  ghosts.inFlight += 1;
+  updateBusy();
+  try {
     const solutions = answer.solutions.map((s) => ({ ...s, colliding: null }));
     const drawn = solutions.slice(0, GHOST_MAX_DRAWN);
     let poses = [];
     if (drawn.length) {
       const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q: drawn.map((s) => s.q), links: "all" } });
-      if (stale()) return;
+      if (stale()) return false;
       poses = fk.poses;
     }
     if (solutions.length && await hasCollisionGeometry(id)) {
       try {
         const col = await api(`/models/${encodeURIComponent(id)}/collision`, { method: "POST", body: { q: solutions.map((s) => s.q) } });
-        if (stale()) return;
+        if (stale()) return false;
         col.colliding.forEach((c, i) => { solutions[i].colliding = Boolean(c); });
       } catch (_) { /* the tint is a bonus: the ghosts stay grey-blue */ }
     }
-    if (stale()) return;
+    if (stale()) return false;
     ghosts.solutions = solutions;
     ghosts.jointNames = answer.joint_names;
     ghosts.chosen = -1;
@@ -183,27 +220,21 @@ async function sendGhosts() {
     const checked = solutions.some((s) => s.colliding !== null);
     const more = solutions.length > drawn.length ? ` (the first ${drawn.length} drawn)` : "";
     const n = answer.count;
-    setGhostStatus(`${n} solution${n === 1 ? "" : "s"}${more}${familyText(family)}`
+    const named = family ? familyText(family) : (answer.family ? ` · family ${answer.family}` : "");
+    setGhostStatus(`${n} solution${n === 1 ? "" : "s"}${label ? ` ${label}` : ""}${more}${named}`
       + (checked ? ` · ${colliding} colliding` : ""), n ? "" : "warn");
     state.ghosts = {
-      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed: body.seed,
-      locked: locked || {},
+      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed,
+      locked: locked || {}, parameter,
       method: answer.method, colliding: checked ? colliding : null, chosen: -1,
       solutions: solutions.map((s) => ({
         q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding,
         color: `#${ghostColor(s).toString(16).padStart(6, "0")}`,
       })),
     };
-  } catch (err) {
-    if (stale()) return;
-    // Not every chain has a finite set (a redundant arm, a position target): said here, no banner.
-    disposeGhosts();
-    $("ghost-list").replaceChildren();
-    setGhostStatus(`Every solution: ${err.message.replace(/^POST \S+: /, "")}`, "warn");
-    state.ghosts = { count: null, error: err.message, drawn: 0, solutions: [] };
+    return true;
   } finally {
     ghosts.inFlight -= 1;
-    state.ghostResponses += 1;
     updateBusy();
   }
 }

@@ -8,15 +8,16 @@ import { $, state } from "./config.js";
 import { chooseGhost, ghostPoints, ghostsBusy } from "./ghosts.js";
 import { ik, ikBusy, ikTarget, ikTargetPose, requestIk, setIkEnabled } from "./ik.js";
 import { pathBusy, pathTest } from "./path.js";
+import { selfMotionBusy, selfMotionTest } from "./self-motion.js";
 import { currentQ, fitCamera, fkBusy } from "./robot.js";
 import { camera, controls, gizmo, renderer, requestRender } from "./scene.js";
 import { current } from "./state.js";
 import { setQdot, velocityBusy } from "./velocity.js";
 import { sampleWorkspace } from "./workspace.js";
 
-/** No IK, every-solution, path or FK work pending or in flight. */
+/** No IK, every-solution, self-motion, path or FK work pending or in flight. */
 export function settled() {
-  return !ikBusy() && !ghostsBusy() && !pathBusy() && !fkBusy();
+  return !ikBusy() && !ghostsBusy() && !selfMotionBusy() && !pathBusy() && !fkBusy();
 }
 
 export async function whenSettled() {
@@ -46,6 +47,7 @@ window.viewerTest = Object.assign(window.viewerTest || {}, {
   /** Client (CSS pixel) points on ghost `index` where a click hits it first. */
   ghostPoints: (index) => ghostPoints(index),
   ...pathTest,
+  ...selfMotionTest,
   /** Canvas (CSS pixel) coordinates of every link origin as the camera sees it now, and the
    * canvas size: {width, height, points: {link: [x, y, depth]}} (depth in (-1, 1) when between
    * the near and far planes). */

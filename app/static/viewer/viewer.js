@@ -13,7 +13,7 @@
 //
 // The viewer is ES modules (no build step, relative imports): config.js, api.js, scene.js,
 // robot.js, meshes.js (visuals and meshes), self-collision.js, ik.js (with ghosts.js, every IK
-// solution, and path.js, Cartesian paths), workspace.js, velocity.js, closed-forms.js, dh-editor.js,
+// solution, self-motion.js, a 7-joint arm's self-motion, and path.js, Cartesian paths), workspace.js, velocity.js, closed-forms.js, dh-editor.js,
 // loader.js, calibration.js, trajectory.js (a planned path timed and played in time), state.js (the
 // state they share: the model shown, and events), test-hook.js (window.viewerTest); this one, the
 // entry point, wires the tabs and starts.
