@@ -104,7 +104,10 @@ def test_the_slider_sweeps_the_panda_along_its_self_motion(server, browser):
     before = _state(browser)["selfMotionRequests"]
     browser.execute_script(
         """const input = document.getElementById('sm-slider');
-           for (const v of arguments[0]) { input.value = String(v); input.dispatchEvent(new Event('input', {bubbles: true})); }""",
+           for (const v of arguments[0]) {
+             input.value = String(v);
+             input.dispatchEvent(new Event('input', {bubbles: true}));
+           }""",
         SWEEP)
     value = float(_js(browser, "Number(document.getElementById('sm-slider').value)"))
     assert abs(value - SWEEP[-1]) < 1e-2
@@ -141,7 +144,8 @@ def test_the_slider_sweeps_the_panda_along_its_self_motion(server, browser):
     ref = _self_motion(server, target, q0, values=[value])
     ghosts = _js(browser, "window.viewerState.ghosts")
     assert ghosts["count"] == ref["count"] and ghosts["parameter"]["value"] == value
-    assert np.allclose(sorted(s["q"] for s in ghosts["solutions"]), sorted(s["q"] for s in ref["solutions"]), atol=1e-12)
+    assert np.allclose(sorted(s["q"] for s in ghosts["solutions"]), sorted(s["q"] for s in ref["solutions"]),
+                       atol=1e-12)
     assert any(np.allclose(s["q"], q1, atol=0) for s in ghosts["solutions"])
     assert f"at {PARAMETER} = {value:.3f}" in browser.find_element(By.ID, "ghost-status").text
 
