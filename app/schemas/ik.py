@@ -67,7 +67,8 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
         """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request, built once;
         ``collisions``: the service's allowed-collision matrix (samples, where it is kept), used when the
         request asks for ``avoid_collisions``."""
-        return IKOptions(ik_settings(self), SolutionSet(self.solutions, self.method, self.locked, self.limits),
+        return IKOptions(ik_settings(self), SolutionSet(self.solutions, self.method, self.locked, self.limits,
+                                                        RedundancyRequest.spec(self.redundancy)),
                          collisions if self.avoid_collisions else None)
 
 

@@ -36,5 +36,11 @@ class RedundancyRequest(BaseModel):
             out["parameter"] = {"joint": self.parameter.joint}
         return out
 
+    @classmethod
+    def spec(cls, field: "RedundancyRequest | dict | None") -> dict | None:
+        """The library's ``redundancy`` map of a request's field (None: none; the service reads bodies
+        with ``model_construct``, so the field may be the validated dict)."""
+        return None if field is None else cls.model_validate(field).as_spec()
+
 
 __all__ = ["RedundancyParameter", "RedundancyRequest"]
