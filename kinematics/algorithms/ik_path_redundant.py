@@ -1,0 +1,190 @@
+"""Cartesian paths of a redundant (7-joint) chain that move along its self-motion.
+
+A 6-joint chain has finitely many solutions per target, and :func:`~kinematics.algorithms.ik_path.cartesian_path`
+follows the nearest; where that branch leaves the limits or ends, the path stops with ``joint_jump``.
+A 7-joint chain has a one-dimensional set per target (its self-motion, run by a parameter ψ: a joint's
+value, :class:`~kinematics.algorithms.ik_redundant.SelfMotion`), and the path may choose ψ at every
+target. :func:`self_motion_path` chooses it by **continuation along the branch**:
+
+1. the first row: with a seed, the point of the first target's whole self-motion nearest it (the
+   seed itself when it reaches the first waypoint); without one, the best point of the whole
+   self-motion for the objective (:func:`~kinematics.algorithms.ik_self_motion.best`; ``nearest``: to
+   the middle of the limits);
+2. each next target: the slices at :data:`WINDOW` values on each side of the previous row's ψ, at
+   most ``max_joint_step`` away (and within the parameter's limits), solved in one batch; the branch of
+   the previous row is followed over them from the solution nearest it (each sample's solution nearest
+   the last one followed, within :data:`~kinematics.algorithms.ik_redundant.MATCH`; revolute angles
+   taken as the ``2πk`` copy nearest the previous row). Its samples inside the joint limits and at
+   most ``max_joint_step`` from the previous row in every joint are the choices; the objective picks
+   one (``nearest``: the least Euclidean step from the previous row; ``margin``, ``manipulability``:
+   the largest, :class:`~kinematics.algorithms.ik_self_motion.Objective`), refined by
+   :data:`REFINE_ROUNDS` rounds of :data:`REFINE_POINTS` values between its neighbours. Where no
+   sample qualifies, damped Newton steps from the previous row (the least-norm step) give ψ, and the
+   slice there gives the exact row;
+3. where neither does, the path stops: ``unreachable`` (the target's self-motion is empty),
+   ``limits`` (none of it lies within the joint limits) or ``joint_jump`` (it does, but no choice
+   is within ``max_joint_step`` of the previous row).
+
+Every row is a slice solution (exact to :data:`~kinematics.algorithms.ik_redundant.TRACK_TOLERANCE`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..tolerances import LIMIT_TOLERANCE
+from . import ik_self_motion as sm
+from .ik import middle_of_limits, pose_errors
+from .ik_all import newton
+from .ik_path import (DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION, PathAnswer, path_answer,
+                      path_targets)
+from .ik_redundant import MATCH, SelfMotion
+
+#: parameter values solved on each side of the previous row's (the window is ±max_joint_step)
+WINDOW = 16
+#: rounds of refinement around the best sample, each solving this many values between its neighbours
+REFINE_ROUNDS, REFINE_POINTS = 6, 6
+#: slices one target may solve (the service's budget counts these)
+SLICES_PER_TARGET = 2 * WINDOW + 1 + REFINE_ROUNDS * REFINE_POINTS + 1
+
+
+def self_motion_path(motion: SelfMotion, waypoints: np.ndarray, objective: str, seed: np.ndarray | None = None, *,
+                     base: np.ndarray | None = None, step_position: float = DEFAULT_STEP_POSITION,
+                     step_rotation: float = DEFAULT_STEP_ROTATION, max_joint_step: float = DEFAULT_MAX_JOINT_STEP,
+                     collision_free=None) -> PathAnswer:
+    """The path of ``motion``'s link through ``waypoints`` (N, 4, 4, world frame; ``base``
+    ``T_world_root``), choosing the self-motion for ``objective`` (one of
+    :data:`~kinematics.algorithms.ik_redundant.OBJECTIVES`) from ``seed`` (dof,) (see the module text);
+    ``collision_free`` as for :func:`~kinematics.algorithms.ik_path.cartesian_path`."""
+    targets, length = path_targets(waypoints, base, step_position, step_rotation, max_joint_step)
+    model = motion.model
+    start = np.array(middle_of_limits(model) if seed is None else seed, dtype=float)
+    for name, v in motion.locked.items():
+        start[model.q_index[name]] = v
+    rows: list[np.ndarray] = []
+    stopped = None
+    for i, T in enumerate(targets):
+        q = _first(motion, T, objective, start, seed is not None) if i == 0 else \
+            _follow(motion, T, rows[-1], objective, max_joint_step)
+        if q is None:
+            stopped = {"index": i, "reason": _why_none(motion, T, i)}
+            break
+        rows.append(q)
+    return path_answer(motion.poe, motion.link, motion.tool, np.array(rows).reshape(len(rows), model.dof), targets,
+                       length, stopped, collision_free, motion.family_name())
+
+
+def _first(motion: SelfMotion, T: np.ndarray, objective: str, start: np.ndarray, seeded: bool) -> np.ndarray | None:
+    """The first row: the point of the target's whole self-motion nearest the seed, or best for the objective."""
+    goal = sm.Objective("nearest", start) if seeded or objective == "nearest" else sm.Objective(objective)
+    found = sm.best(motion, T[None], goal)[0]
+    if found is None:
+        return None
+    q = start.copy()
+    cols = motion.chain.columns
+    q[cols] = found.q[cols]
+    return q
+
+
+def _why_none(motion: SelfMotion, T: np.ndarray, index: int) -> str:
+    """Why no row reaches ``T``: its self-motion is empty, entirely outside the limits, or out of reach
+    of the previous row."""
+    pieces, branches = sm.intervals(motion, T[None])
+    if not branches[0]:
+        return "unreachable"
+    return "joint_jump" if pieces[0] and index > 0 else "limits"
+
+
+class _Window:
+    """The slices of one target near the previous row ``prev``: candidates as 2πk copies nearest it, and
+    which of them may follow it (inside the limits, no joint moved more than ``max_joint_step``)."""
+
+    def __init__(self, motion: SelfMotion, T: np.ndarray, prev: np.ndarray, max_joint_step: float):
+        self.motion, self.T, self.prev, self.step = motion, T, prev, max_joint_step
+        model, chain = motion.model, motion.chain
+        self.cols = chain.columns
+        self.periodic = chain.revolute.copy()
+        self.periodic[motion.k] = False  # the parameter keeps the value it is solved at
+        self.lo = model.lower_limits[self.cols] - LIMIT_TOLERANCE
+        self.hi = model.upper_limits[self.cols] + LIMIT_TOLERANCE
+
+    def solve(self, psi: np.ndarray) -> list[np.ndarray]:
+        """Per value the solutions (K, dof), each revolute joint the copy nearest the previous row."""
+        sl = self.motion.solve(np.repeat(self.T[None], len(psi), axis=0), psi, exact=True)
+        out = []
+        for r in range(len(psi)):
+            Q = sl.q[r, :sl.count[r]].copy()
+            x = Q[:, self.cols]
+            d = x - self.prev[self.cols]
+            x = np.where(self.periodic, self.prev[self.cols] + np.mod(d + np.pi, 2 * np.pi) - np.pi, x)
+            Q[:] = self.prev
+            Q[:, self.cols] = x
+            out.append(Q)
+        return out
+
+    def distance(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return np.abs(Q[:, self.cols] - q[self.cols]).max(axis=1) if len(Q) else np.zeros(0)
+
+    def allowed(self, q: np.ndarray) -> bool:
+        x = q[self.cols]
+        return bool(np.all((x >= self.lo) & (x <= self.hi)) and self.distance(q[None], self.prev)[0] <= self.step)
+
+    def nearest(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray | None:
+        """The solution of ``Q`` on the branch of ``q`` (nearest it, within MATCH), or None."""
+        d = self.distance(Q, q)
+        if not len(d) or d.min() >= MATCH:
+            return None
+        return Q[int(np.argmin(d))]
+
+
+def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str,
+            max_joint_step: float) -> np.ndarray | None:
+    """The next row after ``prev`` at ``T`` (see the module text), or None where no continuous choice exists."""
+    win = _Window(motion, T, prev, max_joint_step)
+    psi0 = float(np.clip(prev[motion.column], motion.lower, motion.upper))
+    a, b = max(motion.lower, psi0 - max_joint_step), min(motion.upper, psi0 + max_joint_step)
+    grid = np.unique(np.concatenate([np.linspace(a, psi0, WINDOW + 1), np.linspace(psi0, b, WINDOW + 1)]))
+    sols = win.solve(grid)
+    # the branch of the previous row: from the solution nearest it, outwards sample by sample
+    near = [win.distance(Q, prev).min(initial=np.inf) for Q in sols]
+    j0 = int(np.argmin(near))
+    track: dict[float, np.ndarray] = {}
+    if np.isfinite(near[j0]) and near[j0] < MATCH:
+        track[grid[j0]] = sols[j0][int(np.argmin(win.distance(sols[j0], prev)))]
+        for order in (range(j0 + 1, len(grid)), range(j0 - 1, -1, -1)):
+            q = track[grid[j0]]
+            for j in order:
+                q = win.nearest(sols[j], q)
+                if q is None:
+                    break
+                track[grid[j]] = q
+    goal = sm.Objective("nearest", prev) if objective == "nearest" else sm.Objective(objective)
+    score = lambda q: float(goal.values(motion, q, motion.margins(q))[0]) if win.allowed(q) else -np.inf  # noqa: E731
+    known = {p: (score(q), q) for p, q in track.items()}
+    best = max(known, key=lambda p: known[p][0]) if known else None
+    if best is None or not np.isfinite(known[best][0]):
+        return _newton_row(win, psi0)
+    width = (b - a) / (2 * WINDOW)
+    for _ in range(REFINE_ROUNDS):
+        lo, hi = max(a, best - width), min(b, best + width)
+        psi = np.linspace(lo, hi, REFINE_POINTS + 2)[1:-1]
+        for p, Q in zip(psi, win.solve(psi)):
+            ref = known[min(known, key=lambda k: abs(k - p))][1]
+            q = win.nearest(Q, ref)
+            known[float(p)] = (-np.inf, ref) if q is None else (score(q), q)
+        best = max(known, key=lambda p: known[p][0])
+        width = (hi - lo) / (REFINE_POINTS + 1)
+    return known[best][1]
+
+
+def _newton_row(win: _Window, psi0: float) -> np.ndarray | None:
+    """The row of the least-norm step from the previous row (damped Newton on the whole chain), made
+    exact on its slice; None where it fails or may not follow."""
+    motion, prev = win.motion, win.prev
+    q = newton(motion.poe, motion.link, prev[None], win.T[None], win.cols, 40, motion.tool, damped=True)[0]
+    p, r = pose_errors(motion.poe.fk(q[None], [motion.link], tool=motion.tool)[:, 0], win.T[None])
+    if not (p[0] <= motion.tolerances["position_tolerance"] and r[0] <= motion.tolerances["rotation_tolerance"]):
+        return None
+    psi = float(np.clip(q[motion.column], motion.lower, motion.upper))
+    q = win.nearest(win.solve(np.array([psi]))[0], q)
+    return q if q is not None and win.allowed(q) else None
