@@ -38,14 +38,19 @@ from .ik import middle_of_limits, pose_errors
 from .ik_all import newton
 from .ik_path import (DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION, PathAnswer, path_answer,
                       path_targets)
-from .ik_redundant import MATCH, SelfMotion
+from .ik_redundant import MATCH, PSI_TOLERANCE, SelfMotion
 
 #: parameter values solved on each side of the previous row's (the window is ±max_joint_step)
 WINDOW = 16
 #: rounds of refinement around the best sample, each solving this many values between its neighbours
-REFINE_ROUNDS, REFINE_POINTS = 6, 6
-#: slices one target may solve (the service's budget counts these)
-SLICES_PER_TARGET = 2 * WINDOW + 1 + REFINE_ROUNDS * REFINE_POINTS + 1
+REFINE_ROUNDS, REFINE_POINTS = 10, 6
+#: two solutions of neighbouring values are one branch when no joint moved more than this (rad or m);
+#: a cell where the branch moves more is halved, down to MIN_CELL (then the branch ends in it)
+SMOOTH, MIN_CELL = 0.1, 1e-9
+#: margin and manipulability: the choice nearest the previous row among those within this share of the best
+SLACK = 1e-3
+#: slices one target solves, about (the service's budget counts these)
+SLICES_PER_TARGET = 2 * WINDOW + 1 + 2 * REFINE_ROUNDS * REFINE_POINTS + 1
 
 
 def self_motion_path(motion: SelfMotion, waypoints: np.ndarray, objective: str, seed: np.ndarray | None = None, *,
@@ -129,12 +134,30 @@ class _Window:
         x = q[self.cols]
         return bool(np.all((x >= self.lo) & (x <= self.hi)) and self.distance(q[None], self.prev)[0] <= self.step)
 
+    def score(self, objective: sm.Objective, q: np.ndarray) -> float:
+        """``objective`` at ``q`` where ``q`` may follow the previous row, else −∞."""
+        return float(objective.values(self.motion, q, self.motion.margins(q))[0]) if self.allowed(q) else -np.inf
+
     def nearest(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray | None:
         """The solution of ``Q`` on the branch of ``q`` (nearest it, within MATCH), or None."""
         d = self.distance(Q, q)
         if not len(d) or d.min() >= MATCH:
             return None
         return Q[int(np.argmin(d))]
+
+    def bridge(self, p: float, q: np.ndarray, p2: float, Q2: np.ndarray) -> list | None:
+        """The branch of ``q`` (at ψ = ``p``) carried to ``p2`` (its solutions ``Q2``): ``[(ψ, q), ...]``
+        ending at ``p2``, the cell halved (each half solved) while no solution moved less than
+        :data:`SMOOTH` in every joint; None where the branch ends inside the cell."""
+        d = self.distance(Q2, q)
+        if len(d) and d.min() < SMOOTH:
+            return [(p2, Q2[int(np.argmin(d))])]
+        if abs(p2 - p) <= MIN_CELL:
+            return None
+        m = (p + p2) / 2
+        left = self.bridge(p, q, m, self.solve(np.array([m]))[0])
+        right = None if left is None else self.bridge(m, left[-1][1], p2, Q2)
+        return None if right is None else left + right
 
 
 def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str,
@@ -149,35 +172,56 @@ def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str,
     near = [win.distance(Q, prev).min(initial=np.inf) for Q in sols]
     j0 = int(np.argmin(near))
     track: dict[float, np.ndarray] = {}
-    if np.isfinite(near[j0]) and near[j0] < MATCH:
-        track[grid[j0]] = sols[j0][int(np.argmin(win.distance(sols[j0], prev)))]
+    if near[j0] < MATCH:
+        track[float(grid[j0])] = sols[j0][int(np.argmin(win.distance(sols[j0], prev)))]
         for order in (range(j0 + 1, len(grid)), range(j0 - 1, -1, -1)):
-            q = track[grid[j0]]
+            p, q = float(grid[j0]), track[float(grid[j0])]
             for j in order:
-                q = win.nearest(sols[j], q)
-                if q is None:
+                steps = win.bridge(p, q, float(grid[j]), sols[j])
+                if steps is None:
                     break
-                track[grid[j]] = q
-    goal = sm.Objective("nearest", prev) if objective == "nearest" else sm.Objective(objective)
-    score = lambda q: float(goal.values(motion, q, motion.margins(q))[0]) if win.allowed(q) else -np.inf  # noqa: E731
-    known = {p: (score(q), q) for p, q in track.items()}
-    best = max(known, key=lambda p: known[p][0]) if known else None
-    if best is None or not np.isfinite(known[best][0]):
-        return _newton_row(win, psi0)
-    width = (b - a) / (2 * WINDOW)
+                track.update(steps)
+                p, q = steps[-1]
+    if not track:
+        return _newton_row(win)
+    # the objective's best choice, then (margin, manipulability) the choice nearest the previous row
+    # among those within SLACK of it: no swing along the self-motion for a negligible gain
+    nearest, goal = sm.Objective("nearest", prev), sm.Objective(objective)
+    best = _refine(win, track, lambda q: win.score(nearest if objective == "nearest" else goal, q))
+    if best is None:
+        return _newton_row(win)
+    if objective != "nearest":
+        top = win.score(goal, track[best])
+        floor = top - SLACK * max(abs(top), 1e-12)
+        best = _refine(win, track, lambda q: win.score(nearest, q) if win.score(goal, q) >= floor else -np.inf)
+    return track[best]
+
+
+def _refine(win: _Window, track: dict, score) -> float | None:
+    """The parameter value of the best ``score`` over the branch ``track`` (ψ -> q; the values solved
+    here are added to it): the best sample, then :data:`REFINE_ROUNDS` rounds of :data:`REFINE_POINTS`
+    values between its neighbours. None where no sample scores above −∞."""
+    known = {p: score(q) for p, q in track.items()}
+    best = max(known, key=known.get)
+    if not np.isfinite(known[best]):
+        return None
     for _ in range(REFINE_ROUNDS):
-        lo, hi = max(a, best - width), min(b, best + width)
+        ps = sorted(known)
+        i = ps.index(best)
+        lo, hi = ps[max(i - 1, 0)], ps[min(i + 1, len(ps) - 1)]
+        if hi - lo <= PSI_TOLERANCE:
+            break
         psi = np.linspace(lo, hi, REFINE_POINTS + 2)[1:-1]
-        for p, Q in zip(psi, win.solve(psi)):
-            ref = known[min(known, key=lambda k: abs(k - p))][1]
-            q = win.nearest(Q, ref)
-            known[float(p)] = (-np.inf, ref) if q is None else (score(q), q)
-        best = max(known, key=lambda p: known[p][0])
-        width = (hi - lo) / (REFINE_POINTS + 1)
-    return known[best][1]
+        for p, Q in zip(psi.tolist(), win.solve(psi)):
+            ref = min(track, key=lambda k: abs(k - p))
+            for x, q in win.bridge(ref, track[ref], p, Q) or ():
+                track[x] = q
+                known[x] = score(q)
+        best = max(known, key=known.get)
+    return best
 
 
-def _newton_row(win: _Window, psi0: float) -> np.ndarray | None:
+def _newton_row(win: _Window) -> np.ndarray | None:
     """The row of the least-norm step from the previous row (damped Newton on the whole chain), made
     exact on its slice; None where it fails or may not follow."""
     motion, prev = win.motion, win.prev
