@@ -73,13 +73,9 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     options, rest = IKOptions.split(options, keywords)
     wanted = options.solutions
     if wanted.redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
-        settings = options.settings
-        if wanted.solutions != "all" or options.collisions is not None:
-            raise KinematicsError("redundancy: give it with solutions 'all' (avoid_collisions is not supported)")
-        return ik_redundant(query, target, redundancy=wanted.redundancy, seed=seed, locked=wanted.locked_map,
-                            limits=wanted.solution_limits, mode=settings.mode,
-                            position_tolerance=settings.position_tolerance,
-                            rotation_tolerance=settings.rotation_tolerance, **rest)
+        if wanted.solutions != "all":
+            raise KinematicsError("redundancy: give it with solutions 'all'")
+        return ik_redundant(query, target, seed=seed, options=options, **rest)
     if wanted.solutions == "all":
         return ik_all(query, target, seed=seed, options=options, **rest)
     strategy = selection(options) if select is None else select
