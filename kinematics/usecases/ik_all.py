@@ -26,7 +26,7 @@ from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from .ik_options import IKOptions
-from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain
+from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain, most_solutions
 from .query import Query
 
 
@@ -151,8 +151,11 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
         motion = _path_motion(query, link, wanted, settings)
         targets, _ = _ik_path.interpolate(W, position, rotation)
         locked_chain = free_chain(query.robot, link, {**motion.locked, motion.joint: motion.v0})
-        check_solutions(query, len(targets) * _ik_path_redundant.SLICES_PER_TARGET, locked_chain,
-                        detect(locked_chain), "ignore")
+        most, slices = most_solutions(query.robot, locked_chain, detect(locked_chain), "ignore"), \
+            _ik_path_redundant.SLICES_PER_TARGET
+        query.budget.check("max_ik_solutions", len(targets) * slices * most, field="step",
+                           what=f"IK solutions ({len(targets)} targets x about {slices} slices of the self-motion "
+                                f"x up to {most} each)")
     else:
         chain = free_chain(query.robot, link, wanted.locked_map)
         family = detect(chain)
