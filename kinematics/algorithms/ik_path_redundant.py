@@ -7,7 +7,7 @@ value, :class:`~kinematics.algorithms.ik_redundant.SelfMotion`), and the path ma
 target. :func:`self_motion_path` chooses it by **continuation along the branch**:
 
 1. the first row: with a seed, the point of the first target's whole self-motion nearest it (the
-   seed itself when it reaches the first waypoint); without one, the best point of the whole
+   seed's own slice solution when it reaches the first waypoint inside the limits: no search); without one, the best point of the whole
    self-motion for the objective (:func:`~kinematics.algorithms.ik_self_motion.best`; ``nearest``: to
    the middle of the limits);
 2. each next target: the slices at :data:`WINDOW` values on each side of the previous row's ψ, at
@@ -47,6 +47,8 @@ REFINE_ROUNDS, REFINE_POINTS = 10, 6
 #: two solutions of neighbouring values are one branch when no joint moved more than this (rad or m);
 #: a cell where the branch moves more is halved, down to MIN_CELL (then the branch ends in it)
 SMOOTH, MIN_CELL = 0.1, 1e-9
+#: a seed this near (rad or m, every joint) a solution at its own parameter value is the first row
+SEED_MATCH = 1e-6
 #: margin and manipulability: the choice nearest the previous row among those within this share of the best
 SLACK = 1e-3
 #: slices one target solves, about (the service's budget counts these)
@@ -80,7 +82,13 @@ def self_motion_path(motion: SelfMotion, waypoints: np.ndarray, objective: str, 
 
 
 def _first(motion: SelfMotion, T: np.ndarray, objective: str, start: np.ndarray, seeded: bool) -> np.ndarray | None:
-    """The first row: the point of the target's whole self-motion nearest the seed, or best for the objective."""
+    """The first row: the point of the target's whole self-motion nearest the seed (the seed's own slice
+    solution where the seed reaches the target inside the limits), or best for the objective."""
+    if seeded:
+        win = _Window(motion, T, start, SEED_MATCH)
+        q = win.nearest(win.solve(np.array([start[motion.column]]))[0], start)
+        if q is not None and win.allowed(q):
+            return q
     goal = sm.Objective("nearest", start) if seeded or objective == "nearest" else sm.Objective(objective)
     found = sm.best(motion, T[None], goal)[0]
     if found is None:
