@@ -25,6 +25,12 @@ target. :func:`self_motion_path` chooses it by **continuation along the branch**
    ``limits`` (none of it lies within the joint limits) or ``joint_jump`` (it does, but no choice
    is within ``max_joint_step`` of the previous row).
 
+With a ``collision_free`` filter the self-motion is used to avoid self-collision: a choice in
+self-collision is no choice (the first row: the best free point,
+:func:`~kinematics.algorithms.ik_self_motion_free.best_free`), and where the only choices that may
+follow collide the path stops with ``collision``. (A 6-joint path cannot choose: it stops at its
+first row in self-collision.)
+
 Every row is a slice solution (exact to :data:`~kinematics.algorithms.ik_redundant.TRACK_TOLERANCE`).
 """
 
@@ -39,6 +45,7 @@ from .ik_all import newton
 from .ik_path import (DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION, PathAnswer, path_answer,
                       path_targets)
 from .ik_redundant import MATCH, PSI_TOLERANCE, SelfMotion
+from .ik_self_motion_free import best_free
 
 #: parameter values solved on each side of the previous row's (the window is ±max_joint_step)
 WINDOW = 16
@@ -71,26 +78,32 @@ def self_motion_path(motion: SelfMotion, waypoints: np.ndarray, objective: str, 
     rows: list[np.ndarray] = []
     stopped = None
     for i, T in enumerate(targets):
-        q = _first(motion, T, objective, start, seed is not None) if i == 0 else \
-            _follow(motion, T, rows[-1], objective, max_joint_step)
+        if i == 0:
+            q, blocked = _first(motion, T, objective, start, seed is not None, collision_free), True
+        else:
+            q, blocked = _follow(motion, T, rows[-1], objective, max_joint_step, collision_free)
         if q is None:
-            stopped = {"index": i, "reason": _why_none(motion, T, i)}
+            stopped = {"index": i, "reason": _why_none(motion, T, i, blocked and collision_free is not None)}
             break
         rows.append(q)
     return path_answer(motion.poe, motion.link, motion.tool, np.array(rows).reshape(len(rows), model.dof), targets,
                        length, stopped, collision_free, motion.family_name())
 
 
-def _first(motion: SelfMotion, T: np.ndarray, objective: str, start: np.ndarray, seeded: bool) -> np.ndarray | None:
+def _first(motion: SelfMotion, T: np.ndarray, objective: str, start: np.ndarray, seeded: bool,
+           free) -> np.ndarray | None:
     """The first row: the point of the target's whole self-motion nearest the seed (the seed's own slice
-    solution where the seed reaches the target inside the limits), or best for the objective."""
+    solution where the seed reaches the target inside the limits, free), or best for the objective
+    (with ``free``, the best free point: :func:`~kinematics.algorithms.ik_self_motion_free.best_free`)."""
     if seeded:
-        win = _Window(motion, T, start, SEED_MATCH)
+        win = _Window(motion, T, start, SEED_MATCH, free)
         q = win.nearest(win.solve(np.array([start[motion.column]]))[0], start)
         if q is not None and win.allowed(q):
             return q
     goal = sm.Objective("nearest", start) if seeded or objective == "nearest" else sm.Objective(objective)
-    found = sm.best(motion, T[None], goal)[0]
+    pieces, branches = sm.intervals(motion, T[None])
+    found = (sm.best(motion, T[None], goal, pieces, branches) if free is None
+             else best_free(motion, T[None], goal, free, pieces, branches))[0]
     if found is None:
         return None
     q = start.copy()
@@ -99,21 +112,26 @@ def _first(motion: SelfMotion, T: np.ndarray, objective: str, start: np.ndarray,
     return q
 
 
-def _why_none(motion: SelfMotion, T: np.ndarray, index: int) -> str:
-    """Why no row reaches ``T``: its self-motion is empty, entirely outside the limits, or out of reach
-    of the previous row."""
+def _why_none(motion: SelfMotion, T: np.ndarray, index: int, blocked: bool) -> str:
+    """Why no row reaches ``T``: its self-motion is empty, entirely outside the limits, in self-collision
+    where it may follow (``blocked``: a choice was refused only for a collision), or out of reach of
+    the previous row."""
     pieces, branches = sm.intervals(motion, T[None])
     if not branches[0]:
         return "unreachable"
-    return "joint_jump" if pieces[0] and index > 0 else "limits"
+    if not pieces[0]:
+        return "limits"
+    return "collision" if blocked else "joint_jump"
 
 
 class _Window:
     """The slices of one target near the previous row ``prev``: candidates as 2πk copies nearest it, and
     which of them may follow it (inside the limits, no joint moved more than ``max_joint_step``)."""
 
-    def __init__(self, motion: SelfMotion, T: np.ndarray, prev: np.ndarray, max_joint_step: float):
-        self.motion, self.T, self.prev, self.step = motion, T, prev, max_joint_step
+    def __init__(self, motion: SelfMotion, T: np.ndarray, prev: np.ndarray, max_joint_step: float, free=None):
+        self.motion, self.T, self.prev, self.step, self.free = motion, T, prev, max_joint_step, free
+        self.blocked = False  # a choice was refused for a collision alone
+        self._free: dict[bytes, bool] = {}
         model, chain = motion.model, motion.chain
         self.cols = chain.columns
         self.periodic = chain.revolute.copy()
@@ -139,8 +157,17 @@ class _Window:
         return np.abs(Q[:, self.cols] - q[self.cols]).max(axis=1) if len(Q) else np.zeros(0)
 
     def allowed(self, q: np.ndarray) -> bool:
+        """``q`` may follow the previous row: inside the limits, within the step and (with a filter) free."""
         x = q[self.cols]
-        return bool(np.all((x >= self.lo) & (x <= self.hi)) and self.distance(q[None], self.prev)[0] <= self.step)
+        if not (np.all((x >= self.lo) & (x <= self.hi)) and self.distance(q[None], self.prev)[0] <= self.step):
+            return False
+        if self.free is None:
+            return True
+        key = q.tobytes()
+        if key not in self._free:
+            self._free[key] = bool(self.free(q[None])[0])
+            self.blocked |= not self._free[key]
+        return self._free[key]
 
     def score(self, objective: sm.Objective, q: np.ndarray) -> float:
         """``objective`` at ``q`` where ``q`` may follow the previous row, else −∞."""
@@ -168,10 +195,11 @@ class _Window:
         return None if right is None else left + right
 
 
-def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str,
-            max_joint_step: float) -> np.ndarray | None:
-    """The next row after ``prev`` at ``T`` (see the module text), or None where no continuous choice exists."""
-    win = _Window(motion, T, prev, max_joint_step)
+def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str, max_joint_step: float,
+            free) -> tuple[np.ndarray | None, bool]:
+    """The next row after ``prev`` at ``T`` (see the module text), or None where no continuous choice
+    exists; and whether a choice was refused for a collision alone."""
+    win = _Window(motion, T, prev, max_joint_step, free)
     psi0 = float(np.clip(prev[motion.column], motion.lower, motion.upper))
     a, b = max(motion.lower, psi0 - max_joint_step), min(motion.upper, psi0 + max_joint_step)
     grid = np.unique(np.concatenate([np.linspace(a, psi0, WINDOW + 1), np.linspace(psi0, b, WINDOW + 1)]))
@@ -191,18 +219,18 @@ def _follow(motion: SelfMotion, T: np.ndarray, prev: np.ndarray, objective: str,
                 track.update(steps)
                 p, q = steps[-1]
     if not track:
-        return _newton_row(win)
+        return _newton_row(win), win.blocked
     # the objective's best choice, then (margin, manipulability) the choice nearest the previous row
     # among those within SLACK of it: no swing along the self-motion for a negligible gain
     nearest, goal = sm.Objective("nearest", prev), sm.Objective(objective)
     best = _refine(win, track, lambda q: win.score(nearest if objective == "nearest" else goal, q))
     if best is None:
-        return _newton_row(win)
+        return _newton_row(win), win.blocked
     if objective != "nearest":
         top = win.score(goal, track[best])
         floor = top - SLACK * max(abs(top), 1e-12)
         best = _refine(win, track, lambda q: win.score(nearest, q) if win.score(goal, q) >= floor else -np.inf)
-    return track[best]
+    return track[best], win.blocked
 
 
 def _refine(win: _Window, track: dict, score) -> float | None:

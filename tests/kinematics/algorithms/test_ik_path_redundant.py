@@ -141,3 +141,19 @@ def test_bad_redundancy_on_a_path_is_named(panda, line):
         kinematics.ik_path(panda, line, link=LINK, redundancy={"select": "nearest", "values": [0.1]})
     with pytest.raises(KinematicsError, match="panda_joint9"):
         kinematics.ik_path(panda, line, link=LINK, redundancy={"select": "nearest", "parameter": "panda_joint9"})
+
+
+def test_with_a_collision_filter_the_self_motion_keeps_clear(panda, motion, line, paths):
+    # "in collision" where q1 < -1.03: the nearest path goes there (q1 reaches -1.076), this one may not
+    assert paths["nearest"].q[:, 0].min() < -1.05
+    free = lambda Q: np.asarray(Q)[:, 0] >= -1.03  # noqa: E731
+    ans = self_motion_path(motion, line, "nearest", START, collision_free=free)
+    assert ans.complete and free(ans.q).all() and ans.q[:, 0].min() == pytest.approx(-1.03, abs=1e-6)
+    np.testing.assert_allclose(ans.q[0], START, atol=1e-9)
+    _continuous_and_exact(panda, ans)
+    # a seed in collision: the first row is the nearest free point; where the free choices end: collision
+    free = lambda Q: np.asarray(Q)[:, 0] >= -0.95  # noqa: E731
+    ans = self_motion_path(motion, line, "nearest", START, collision_free=free)
+    assert ans.q[0, 0] == pytest.approx(-0.95, abs=1e-9) and free(ans.q).all()
+    assert ans.stopped == {"index": len(ans.q), "reason": "collision"} and len(ans.q) > 1
+    _continuous_and_exact(panda, ans)
