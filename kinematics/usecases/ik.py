@@ -69,6 +69,10 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     solution nearest the seed among the free ones of the full set; otherwise up to
     :data:`~kinematics.usecases.ik_select.COLLISION_ROUNDS` rounds of fresh seeds within the limits, each with its restarts --
     and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
+
+    ``redundancy`` (with ``solutions="all"``, a 7-joint chain): its self-motion,
+    :func:`kinematics.usecases.ik_redundant.ik_redundant` (with ``avoid_collisions``: the slices
+    without their colliding solutions, or the best free point).
     """
     options, rest = IKOptions.split(options, keywords)
     wanted = options.solutions
