@@ -146,7 +146,8 @@ def _document_limits(app: FastAPI, schema: dict) -> None:
             ("IKRequest", "solutions", f"all: at most {settings.max_ik_solutions} solutions in one request "
                                        "(KIN_MAX_IK_SOLUTIONS), counted before the work as targets x the most the "
                                        "chain can have; over it: 413 ik-solutions-too-large"),
-            ("IKPathRequest", "step", f"the path's interpolated targets x the most solutions the chain can have: at "
+            ("IKPathRequest", "step", f"the path's interpolated targets x the most solutions the chain can have "
+                                      "(with redundancy: x the slices of the self-motion each target solves): at "
                                       f"most {settings.max_ik_solutions} (KIN_MAX_IK_SOLUTIONS; 413)")):
         prop = components.get(name, {}).get("properties", {}).get(field)
         if prop is not None:

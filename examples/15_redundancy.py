@@ -1,5 +1,6 @@
 """Every solution of a 7-joint arm: a Panda's self-motion sliced at values of q7, the q7 ranges
-over which it stays within its limits, and its best point for the limit margin.
+over which it stays within its limits, its best point for the limit margin, and a Cartesian path
+that jumps with q7 locked and not along the self-motion.
 
 Run: python examples/15_redundancy.py
 """
@@ -31,3 +32,15 @@ best = api.ik(panda, target, link="panda_link8", solutions="all",
 for r in best.intervals[0]:
     print(f"  q7 in [{r['from']:.6f}, {r['to']:.6f}] on {len(r['branches'])} branch pieces")
 print(f"best margin at q7 = {best.parameter[0, 0]:.6f}:", np.round(best.q[0, 0, :7], 3))
+
+# a straight line on which q2 passes zero (the axes of q1 and q3 line up): with q7 locked the
+# six-joint chain is singular there and the path stops; along the self-motion it goes through
+start = np.array([-1.0, -0.1, 0.64, -2.41, -0.48, 0.9, 0.66, 0.0])
+a = kinematics.fk(panda, start, links=["panda_link8"]).poses[0, 0]
+b = a.copy()
+b[:3, 3] += [0.0, -0.08, -0.025]
+locked = api.ik_path(panda, np.array([a, b]), link="panda_link8", seed=start, locked={"panda_joint7": 0.66})
+print("q7 locked:", locked.stopped, f"fraction {locked.fraction:.2f}")
+moving = api.ik_path(panda, np.array([a, b]), link="panda_link8", seed=start, redundancy={"select": "nearest"})
+print(f"self-motion: complete {moving.complete}, largest joint step {moving.max_joint_step:.3f} rad, "
+      f"q7 from {moving.q[0, 6]:.3f} to {moving.q[-1, 6]:.3f}, worst error {moving.position_error.max():.1e} m")

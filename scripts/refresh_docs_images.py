@@ -7,6 +7,7 @@ copies each shot over its picture in ``docs/``: run it when the viewer's look ch
 the pictures it wrote.
 
     python scripts/refresh_docs_images.py          # from the repository root
+    python scripts/refresh_docs_images.py viewer_redundancy.png   # only these pictures
 """
 
 from __future__ import annotations
@@ -27,29 +28,37 @@ PICTURES = (
      "viewer_calibration.png", "viewer_calibration.png"),
     ("tests/app/test_viewer_trajectory.py::test_a_planned_path_is_timed_played_in_time_and_charted",
      "viewer_trajectory.png", "viewer_trajectory.png"),
+    ("tests/app/test_viewer_redundancy.py::test_the_slider_sweeps_the_panda_along_its_self_motion",
+     "viewer_redundancy.png", "viewer_redundancy.png"),
 )
 
 
-def main() -> int:
-    for _, shot, _ in PICTURES:
+def main(only: list[str]) -> int:
+    unknown = sorted(set(only) - {picture for _, _, picture in PICTURES})
+    if unknown:
+        print(f"refresh_docs_images: no picture {', '.join(unknown)} (the pictures: "
+              f"{', '.join(picture for _, _, picture in PICTURES)})", file=sys.stderr)
+        return 2
+    pictures = [p for p in PICTURES if not only or p[2] in only]
+    for _, shot, _ in pictures:
         (ARTIFACTS / shot).unlink(missing_ok=True)
-    tests = [test for test, _, _ in PICTURES]
+    tests = [test for test, _, _ in pictures]
     # -rs names a skipped test (no Chromium); a skip leaves its shot missing, reported below
     code = subprocess.call([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:randomly", "-rs", *tests],
                            cwd=REPO)
     if code != 0:
         print(f"refresh_docs_images: the tests failed (exit {code}); docs/ left as it was", file=sys.stderr)
         return code
-    missing = [shot for _, shot, _ in PICTURES if not (ARTIFACTS / shot).exists()]
+    missing = [shot for _, shot, _ in pictures if not (ARTIFACTS / shot).exists()]
     if missing:
         print(f"refresh_docs_images: no screenshot {', '.join(missing)} (were the browser tests skipped? "
               "apt-get install chromium chromium-driver); docs/ left as it was", file=sys.stderr)
         return 1
-    for _, shot, picture in PICTURES:
+    for _, shot, picture in pictures:
         (REPO / "docs" / picture).write_bytes((ARTIFACTS / shot).read_bytes())
         print(f"docs/{picture} <- tests/artifacts/{shot}")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))

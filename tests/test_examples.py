@@ -210,6 +210,8 @@ def test_example_15_redundancy():
     assert "generating configuration listed: True" in out
     assert deviation(out, "worst error:") < 1e-9
     assert re.search(r"best margin at q7 = 0\.69", out)
+    assert "q7 locked: {'index': 5, 'reason': 'joint_jump'}" in out  # the path jumps with q7 held
+    assert "self-motion: complete True" in out and deviation(out, "worst error") < 1e-9  # and not along it
 
 
 def test_example_16_trajectory():

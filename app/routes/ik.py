@@ -30,7 +30,6 @@ from kinematics.usecases.ik_options import DEFAULT_SETTINGS, CollisionAvoidance
 
 from ..adapter import (FloatingBaseQuery, LinkQuery, LockedQuery, NormalizeQuery, PointQuery, budget, error_responses,
                        execute, names_headers, npy_response_doc, parse_point, read_request, request_body_doc)
-from ..schemas.redundancy import RedundancyRequest
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npz
 from ..errors import ProblemError
 from ..metrics import record_ik
@@ -137,9 +136,7 @@ def _solve(model_id: str, req: IKRequest, request: Request, registry, settings: 
     rec = registry.get(model_id)
     pairs = user_pairs(registry, rec.id, req) if req.avoid_collisions else None
     answer = usecases.ik(req.to_query(rec.model, budget(settings), collision_pairs=pairs), req.target, seed=req.seed,
-                         options=req.ik_options(collision_avoidance(registry, settings)),
-                         redundancy=None if req.redundancy is None
-                         else RedundancyRequest.model_validate(req.redundancy).as_spec())
+                         options=req.ik_options(collision_avoidance(registry, settings)))
     if isinstance(answer, usecases.IKAllAnswer):
         if wants_npz(request):
             return NpzResponse(IKAllResponse.arrays(answer), headers=_npz_headers(

@@ -35,14 +35,17 @@ async def read_path_request(request: Request, settings: SettingsDep) -> IKPathRe
 
 
 @router.post("/models/{model_id}/ik/path", response_model=IKPathResponse,
-             responses=error_responses({422: "invalid waypoints, seed, locked joint or options"}),
+             responses=error_responses({422: "invalid waypoints, seed, locked joint, redundancy or options"}),
              openapi_extra=request_body_doc("IKPathRequest", IK_PATH_EXAMPLES, None))
 async def ik_path(model_id: ModelId, req: Annotated[IKPathRequest, Depends(read_path_request)], request: Request,
                   registry: RegistryDep, settings: SettingsDep):
     """A Cartesian path through `waypoints`: straight lines and rotation geodesics cut at `step`,
     each target solved by continuation from the previous row (the nearest solution of the full set),
     never a joint change over `max_joint_step`; where it stops, `stopped` says at which target and why.
-    With `avoid_collisions` the path stops at its first row in self-collision (reason `collision`)."""
+    With `avoid_collisions` the path stops at its first row in self-collision (reason `collision`).
+    With `redundancy` (`{"select": "nearest" | "margin" | "manipulability"}`) a 7-joint chain moves
+    along its self-motion: at each target the parameter is chosen on the previous row's branch, within
+    `max_joint_step` and the limits, for the objective; a chain that is not redundant is a 422."""
     return await execute(request, _path, model_id, req, registry, settings)
 
 

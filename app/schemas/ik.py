@@ -61,13 +61,16 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
                                    "colliding); with one the search goes on until a free answer is found, and "
                                    "success holds only for a free one. A model without collision geometry: 422")
     redundancy: Union[RedundancyRequest, None] = Field(
-        default=None, description="a 7-joint chain with solutions all: its self-motion (app/schemas/redundancy.py)")
+        default=None, description="a 7-joint chain with solutions all: its self-motion (app/schemas/redundancy.py); "
+                                  "with avoid_collisions, values leave the colliding solutions out and select "
+                                  "answers the best free point (intervals: 422)")
 
     def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
         """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request, built once;
         ``collisions``: the service's allowed-collision matrix (samples, where it is kept), used when the
         request asks for ``avoid_collisions``."""
-        return IKOptions(ik_settings(self), SolutionSet(self.solutions, self.method, self.locked, self.limits),
+        return IKOptions(ik_settings(self), SolutionSet(self.solutions, self.method, self.locked, self.limits,
+                                                        RedundancyRequest.spec(self.redundancy)),
                          collisions if self.avoid_collisions else None)
 
 

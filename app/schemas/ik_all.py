@@ -15,6 +15,7 @@ from kinematics.usecases.ik_options import CollisionAvoidance, IKOptions, Soluti
 
 from .collision import CollisionPairs
 from .ik import IKTolerance, ik_settings
+from .redundancy import RedundancyPathRequest
 
 _LOCKED_DESC = "joints held at these values, {joint: value}"
 
@@ -105,11 +106,16 @@ class IKPathRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs 
     locked: Union[dict[str, Number], None] = Field(default=None, description=_LOCKED_DESC)
     avoid_collisions: Flag = Field(default=False, description="stop at the first row in self-collision (reason "
                                                                "collision); a model without collision geometry: 422")
+    redundancy: Union[RedundancyPathRequest, None] = Field(
+        default=None, description="a 7-joint chain: move along its self-motion, the parameter chosen continuously "
+                                  "at each target for select (no joint_jump where a continuous in-limit choice "
+                                  "exists); a chain that is not redundant: 422")
 
     def ik_options(self, collisions: CollisionAvoidance) -> IKOptions:
         """The library's :class:`~kinematics.usecases.ik_options.IKOptions` of this request (its tolerances,
-        ``locked``, and ``collisions`` when it asks for ``avoid_collisions``)."""
-        return IKOptions(ik_settings(self), SolutionSet(locked=self.locked),
+        ``locked``, ``redundancy``, and ``collisions`` when it asks for ``avoid_collisions``)."""
+        return IKOptions(ik_settings(self),
+                         SolutionSet(locked=self.locked, redundancy=RedundancyPathRequest.spec(self.redundancy)),
                          collisions if self.avoid_collisions else None)
 
 

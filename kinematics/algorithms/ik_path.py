@@ -120,12 +120,7 @@ def cartesian_path(model: RobotModel, link: str, waypoints: np.ndarray, seed: np
     ``T_world_root``) from ``seed`` (dof,; default: the solution of the first target nearest the
     middle of the limits). ``collision_free``: None, or ``free(Q)`` (R, dof) -> (R,) bool; the path
     stops at its first row that is not free (reason ``collision``). See the module text."""
-    if not max_joint_step > 0:
-        raise KinematicsError("max_joint_step: must be positive")
-    W = np.asarray(waypoints, dtype=float).reshape(-1, 4, 4)
-    if base is not None:
-        W = np.matmul(inverse_transform(base), W)
-    targets, length = interpolate(W, step_position, step_rotation)
+    targets, length = path_targets(waypoints, base, step_position, step_rotation, max_joint_step)
     chain = reduce_chain(model, link, locked, tool)
     fam = detect(chain)
     poe = compile_model(model)
@@ -173,7 +168,26 @@ def cartesian_path(model: RobotModel, link: str, waypoints: np.ndarray, seed: np
             break
         rows.append(best)
         prev = best
-    Q = np.array(rows).reshape(len(rows), model.dof)
+    return path_answer(poe, link, tool, np.array(rows).reshape(len(rows), model.dof), targets, length, stopped,
+                       collision_free, fam.name)
+
+
+def path_targets(waypoints: np.ndarray, base: np.ndarray | None, step_position: float, step_rotation: float,
+                 max_joint_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """The interpolated targets (M, 4, 4) in the root frame (``base`` ``T_world_root``) of ``waypoints``
+    (world frame) and their arc length (M,), ``max_joint_step`` checked."""
+    if not max_joint_step > 0:
+        raise KinematicsError("max_joint_step: must be positive")
+    W = np.asarray(waypoints, dtype=float).reshape(-1, 4, 4)
+    if base is not None:
+        W = np.matmul(inverse_transform(base), W)
+    return interpolate(W, step_position, step_rotation)
+
+
+def path_answer(poe, link: str, tool, Q: np.ndarray, targets: np.ndarray, length: np.ndarray, stopped: dict | None,
+                collision_free, family: str) -> PathAnswer:
+    """The :class:`PathAnswer` of the continuation's rows ``Q`` (K, dof) and its stop (None: complete):
+    with a ``collision_free`` filter the rows end at the first one in self-collision."""
     if collision_free is not None and len(Q):
         # the rows in order: the first one in self-collision ends the path there
         free = np.asarray(collision_free(Q), dtype=bool)
@@ -189,7 +203,7 @@ def cartesian_path(model: RobotModel, link: str, waypoints: np.ndarray, seed: np
     achieved = float(length[len(Q) - 1]) if len(Q) else 0.0
     fraction = 1.0 if stopped is None else (achieved / total if total > 0 else 0.0)
     steps = np.abs(np.diff(Q, axis=0)).max(initial=0.0) if len(Q) > 1 else 0.0
-    return PathAnswer(Q, targets, p, r, fraction, stopped is None, stopped, float(steps), fam.name)
+    return PathAnswer(Q, targets, p, r, fraction, stopped is None, stopped, float(steps), family)
 
 
 def _why_none(model, link, target, tool, locked, tol) -> str:

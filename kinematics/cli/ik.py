@@ -210,7 +210,7 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     names = list(model.joint_names)
     query = Query(model, link=link, verify=args.verify,  # the request shape, built once for every chunk
                   collision_pairs=user_pairs(args))
-    options = ik_options(args, SolutionSet("all", args.method, locked or None, args.limits))
+    options = ik_options(args, SolutionSet("all", args.method, locked or None, args.limits, redundancy))
     total = unsolved = rows = colliding = 0
     family = method = "?"
     out = dest if hasattr(dest, "write") else open(dest, "w", encoding="utf-8")
@@ -220,7 +220,7 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
                                 *extra]) + "\n")
         with open_input(args, model, source, in_fmt, targets=True) as targets:
             for start, T in targets:
-                a = api.ik(query, T, seed=seed, options=options, redundancy=redundancy)
+                a = api.ik(query, T, seed=seed, options=options)
                 family, method = a.family, a.method
                 for n, ranges in enumerate(getattr(a, "intervals", None) or ()):
                     print(json.dumps({"target": start + n, "intervals": ranges}), file=sys.stderr)

@@ -15,10 +15,11 @@ import numpy as np
 
 from .. import api
 from ..algorithms.ik_path import DEFAULT_MAX_JOINT_STEP, DEFAULT_STEP_POSITION, DEFAULT_STEP_ROTATION
+from ..algorithms.ik_redundant import OBJECTIVES
 from . import EXIT_DISAGREE, EXIT_OK, EXIT_USAGE, add_command
 from ..usecases.ik_options import SolutionSet
 from .collision import add_filter_options, user_pairs
-from .ik import ik_options, parse_locked
+from .ik import ik_options, parse_locked, redundancy_of
 from .common import fail, model_or_exit_code, open_input, quietly
 
 
@@ -28,7 +29,8 @@ def register(sub) -> None:
         description="Joint values moving --link along straight lines and rotation geodesics through the "
         "waypoints of INPUT, each target the solution nearest the previous row; stops where no solution "
         "is within --max-joint-step and says why.",
-        epilog="example:\n  kinematics ik-path --model ur5 --link tool0 waypoints.csv --seed=0.3,-1,1.2,-0.5,0.8,0.2")
+        epilog="examples:\n  kinematics ik-path --model ur5 --link tool0 waypoints.csv --seed=0.3,-1,1.2,-0.5,0.8,0.2\n"
+        "  kinematics ik-path --model panda --link panda_link8 waypoints.csv --select nearest")
     p.add_argument("input", metavar="INPUT", help="waypoints: .csv, .npy or .jsonl (as `kinematics ik` targets)")
     p.add_argument("-o", "--output", default="-", metavar="OUTPUT", help="CSV of the rows (default stdout)")
     p.add_argument("--input-format", choices=("csv", "npy", "jsonl"), help="format of INPUT")
@@ -40,6 +42,13 @@ def register(sub) -> None:
     p.add_argument("--step-rotation", type=float, default=DEFAULT_STEP_ROTATION, metavar="RAD")
     p.add_argument("--max-joint-step", type=float, default=DEFAULT_MAX_JOINT_STEP, metavar="RAD")
     p.add_argument("--locked", action="append", metavar="JOINT:VALUE", default=[])
+    p.add_argument("--select", choices=OBJECTIVES, default=None,
+                   help="a 7-joint chain: move along its self-motion, the parameter chosen continuously at each "
+                   "target for this objective (nearest: the least step; margin; manipulability)")
+    p.add_argument("--redundancy", metavar="joint:NAME", default=None,
+                   help="with --select: the joint whose value runs along the self-motion (default: the family's "
+                   "default parameter)")
+    p.set_defaults(values=None, intervals=False)  # read by redundancy_of (kinematics ik's options)
     add_filter_options(p, "--avoid-collisions", "stop at the first row in self-collision (reason collision)")
 
 
@@ -56,10 +65,15 @@ def run_ik_path(args) -> int:
             seed = [float(v) for v in args.seed.split(",")]
         except ValueError:
             return fail("ik-path", f"--seed: {args.seed!r} is not a comma-separated list of numbers", EXIT_USAGE)
-    return quietly(_run, args, model, seed, locked)
+    redundancy = redundancy_of(args)
+    if isinstance(redundancy, str):
+        return fail("ik-path", redundancy, EXIT_USAGE)
+    if redundancy is not None and args.select is None:
+        return fail("ik-path", "--redundancy needs --select (the objective along the self-motion)", EXIT_USAGE)
+    return quietly(_run, args, model, seed, locked, redundancy)
 
 
-def _run(args, model, seed, locked) -> int:
+def _run(args, model, seed, locked, redundancy) -> int:
     source = sys.stdin if args.input == "-" else args.input
     fmt = "csv" if args.input == "-" and args.input_format is None else args.input_format
     with open_input(args, model, source, fmt, targets=True) as rows:
@@ -67,7 +81,7 @@ def _run(args, model, seed, locked) -> int:
     ans = api.ik_path(model, W, link=args.link, seed=seed, max_joint_step=args.max_joint_step,
                       collision_pairs=user_pairs(args),
                       step={"position": args.step_position, "rotation": args.step_rotation},
-                      options=ik_options(args, SolutionSet(locked=locked or None)))
+                      options=ik_options(args, SolutionSet(locked=locked or None, redundancy=redundancy)))
     out = sys.stdout if args.output == "-" else open(args.output, "w", encoding="utf-8")
     try:
         out.write(",".join(model.joint_names) + "\n")

@@ -32,7 +32,7 @@ class IKAnswer:
 
 
 def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKOptions | None = None,
-       select: Selection | None = None, redundancy: Any = None, **keywords: Any) -> IKAnswer | IKAllAnswer:
+       select: Selection | None = None, **keywords: Any) -> IKAnswer | IKAllAnswer:
     """Joint values putting the query's ``link`` (None: the first leaf link) at ``target``: one pose
     or a list (any form :func:`~kinematics.io.poses.pose_list` reads, or an (N, 4, 4) array),
     ``T_world_link``. With the query's ``point`` or ``tool`` the targets are poses of that frame,
@@ -50,7 +50,7 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     ``options``: how to solve (:class:`~kinematics.usecases.ik_options.IKOptions`, built once), or
     its fields as keywords (``mode``, ``position_tolerance``, ``rotation_tolerance``,
     ``max_iterations``, ``restarts``, ``random_seed``; ``solutions``, ``method``, ``locked``,
-    ``limits``; ``avoid_collisions``, ``collision_samples``, ``cache_dir``: :meth:`IKOptions.split`);
+    ``limits``, ``redundancy``; ``avoid_collisions``, ``collision_samples``, ``cache_dir``: :meth:`IKOptions.split`);
     the other keywords are the query's fields (:meth:`Query.of`).
 
     ``solutions="one"`` answers an :class:`IKAnswer`, one answer per target chosen by ``select``
@@ -69,17 +69,18 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     solution nearest the seed among the free ones of the full set; otherwise up to
     :data:`~kinematics.usecases.ik_select.COLLISION_ROUNDS` rounds of fresh seeds within the limits, each with its restarts --
     and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
+
+    ``redundancy`` (with ``solutions="all"``, a 7-joint chain): its self-motion,
+    :func:`kinematics.usecases.ik_redundant.ik_redundant` (with ``avoid_collisions``: the slices
+    without their colliding solutions, or the best free point).
     """
     options, rest = IKOptions.split(options, keywords)
-    if redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
-        wanted, settings = options.solutions, options.settings
-        if wanted.solutions != "all" or options.collisions is not None:
-            raise KinematicsError("redundancy: give it with solutions 'all' (avoid_collisions is not supported)")
-        return ik_redundant(query, target, redundancy=redundancy, seed=seed, locked=wanted.locked_map,
-                            limits=wanted.solution_limits, mode=settings.mode,
-                            position_tolerance=settings.position_tolerance,
-                            rotation_tolerance=settings.rotation_tolerance, **rest)
-    if options.solutions.solutions == "all":
+    wanted = options.solutions
+    if wanted.redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
+        if wanted.solutions != "all":
+            raise KinematicsError("redundancy: give it with solutions 'all'")
+        return ik_redundant(query, target, seed=seed, options=options, **rest)
+    if wanted.solutions == "all":
         return ik_all(query, target, seed=seed, options=options, **rest)
     strategy = selection(options) if select is None else select
     problem = IKProblem.of(query, target, seed, options, rest, strategy)

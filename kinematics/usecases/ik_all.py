@@ -19,13 +19,14 @@ import numpy as np
 
 from ..algorithms import ik_all as _ik_all
 from ..algorithms import ik_path as _ik_path
+from ..algorithms import ik_path_redundant as _ik_path_redundant
 from ..algorithms.ik_families import detect, reduce_chain
-from ..algorithms.ik_redundant import family_fields
-from ..errors import JointValueError
+from ..algorithms.ik_redundant import SelfMotion, family_fields
+from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from .ik_options import IKOptions
-from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain
+from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain, most_solutions
 from .query import Query
 
 
@@ -130,20 +131,37 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
     ``step``: ``{"position": m, "rotation": rad}``, the largest step between consecutive targets.
     ``avoid_collisions``: the path stops at its first row in self-collision, ``stopped`` ``{"index",
     "reason": "collision"}`` (the matrix of ``collision_samples`` configurations, kept in ``cache_dir``;
-    a model without collision geometry is refused)."""
+    a model without collision geometry is refused).
+
+    ``redundancy`` ``{"select": "nearest" | "margin" | "manipulability"}`` (and optionally its
+    ``parameter``) on a 7-joint chain: the path moves along the self-motion, the parameter chosen
+    continuously at each target for the objective
+    (:func:`kinematics.algorithms.ik_path_redundant.self_motion_path`)."""
     options, rest = IKOptions.split(options, keywords)
-    settings, avoid = options.settings, options.collisions
+    settings, avoid, wanted = options.settings, options.collisions, options.solutions
     query = Query.of(query, **rest)
     free = avoid.filter(query.robot, query.collision_pairs) if avoid is not None else None
     W, _ = pose_list(waypoints, "waypoints")
     link = query.frame_link()
-    chain = free_chain(query.robot, link, options.solutions.locked_map)
-    family = detect(chain)
     step = step or {}
-    if family.closed_form:  # the path lists every in-limit solution of each of its targets first
-        targets, _ = _ik_path.interpolate(W, float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
-                                          float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)))
-        check_solutions(query, len(targets), chain, family)
+    position = float(step.get("position", _ik_path.DEFAULT_STEP_POSITION))
+    rotation = float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION))
+    motion = None
+    if wanted.redundancy is not None:
+        motion = _path_motion(query, link, wanted, settings)
+        targets, _ = _ik_path.interpolate(W, position, rotation)
+        locked_chain = free_chain(query.robot, link, {**motion.locked, motion.joint: motion.v0})
+        most, slices = most_solutions(query.robot, locked_chain, detect(locked_chain), "ignore"), \
+            _ik_path_redundant.SLICES_PER_TARGET
+        query.budget.check("max_ik_solutions", len(targets) * slices * most, field="step",
+                           what=f"IK solutions ({len(targets)} targets x about {slices} slices of the self-motion "
+                                f"x up to {most} each)")
+    else:
+        chain = free_chain(query.robot, link, wanted.locked_map)
+        family = detect(chain)
+        if family.closed_form:  # the path lists every in-limit solution of each of its targets first
+            targets, _ = _ik_path.interpolate(W, position, rotation)
+            check_solutions(query, len(targets), chain, family)
     q0 = None
     if seed is not None:
         S = query.seeds(seed, 1)
@@ -151,9 +169,26 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
             raise JointValueError("seed: give one start configuration")
         q0 = S[0]
     B = query.base_poses(1)
-    return _ik_path.cartesian_path(query.robot, link, W, q0, base=None if B is None else B.reshape(-1, 4, 4)[0],
-                                   tool=query.T_tool, locked=options.solutions.locked_map,
-                                   step_position=float(step.get("position", _ik_path.DEFAULT_STEP_POSITION)),
-                                   step_rotation=float(step.get("rotation", _ik_path.DEFAULT_STEP_ROTATION)),
+    base = None if B is None else B.reshape(-1, 4, 4)[0]
+    if motion is not None:
+        return _ik_path_redundant.self_motion_path(motion, W, wanted.redundancy.select, q0, base=base,
+                                                   step_position=position, step_rotation=rotation,
+                                                   max_joint_step=max_joint_step, collision_free=free)
+    return _ik_path.cartesian_path(query.robot, link, W, q0, base=base, tool=query.T_tool, locked=wanted.locked_map,
+                                   step_position=position, step_rotation=rotation,
                                    max_joint_step=max_joint_step, position_tolerance=settings.position_tolerance,
                                    rotation_tolerance=settings.rotation_tolerance, collision_free=free)
+
+
+def _path_motion(query: Query, link: str, wanted, settings) -> SelfMotion:
+    """The self-motion a path with ``redundancy`` runs along (a redundant chain, a ``select``, no
+    ``values`` or ``intervals``: bad ones are :class:`KinematicsError` s naming the field)."""
+    spec = wanted.redundancy
+    if spec.select is None or spec.values is not None or spec.intervals:
+        raise KinematicsError("redundancy: a path takes select (nearest, margin or manipulability) and "
+                              "optionally parameter; not values or intervals")
+    if query.floating_base:
+        raise KinematicsError("floating_base: a path along the self-motion needs a fixed base (give the base "
+                              "pose as base)")
+    return SelfMotion(query.robot, link, spec.parameter, locked=wanted.locked_map, tool=query.T_tool,
+                      position_tolerance=settings.position_tolerance, rotation_tolerance=settings.rotation_tolerance)

@@ -8,7 +8,8 @@ objects hold it, each default written once, here:
 - :class:`SolutionSet`: which solutions are asked for: ``solutions`` (``one`` or ``all``),
   ``method``, ``locked`` joints and ``solution_limits``, the branch policy: ``respect`` lists the
   solutions inside the joint limits (each ``q + 2 pi k`` copy of a revolute joint), ``ignore``
-  lists each branch once, angles in (-pi, pi]. (The query's ``limits``, ``report`` / ``refuse``,
+  lists each branch once, angles in (-pi, pi]; and, for a redundant (7-joint) chain, ``redundancy``
+  (:class:`~kinematics.algorithms.ik_redundant.Redundancy`: where along its self-motion). (The query's ``limits``, ``report`` / ``refuse``,
   is another policy: what to do with *given* joint values out of their limits. The service's
   and the library's keyword for this one stays ``limits``; the object names it
   ``solution_limits`` so that the two never meet.)
@@ -42,6 +43,7 @@ import numpy as np
 
 from ..algorithms import ik as _ik
 from ..algorithms.collision_matrix import DEFAULT_SAMPLES
+from ..algorithms.ik_redundant import Redundancy
 from ..errors import KinematicsError
 
 #: ``solutions``: a single answer, or every solution
@@ -102,12 +104,15 @@ DEFAULT_SETTINGS = IKSettings()
 class SolutionSet:
     """Which solutions are asked for: ``solutions`` (``one`` or ``all``), ``method`` (``auto``,
     ``analytic``, ``numeric``), ``locked`` joints ``{joint: value}`` (held, a read-only map, None
-    without any) and ``solution_limits`` (``respect`` or ``ignore``; see the module text)."""
+    without any), ``solution_limits`` (``respect`` or ``ignore``; see the module text) and
+    ``redundancy`` (a redundant chain's :class:`~kinematics.algorithms.ik_redundant.Redundancy`, or its
+    request map, read once here; None: none)."""
 
     solutions: str = "one"
     method: str = "auto"
     locked: Mapping[str, float] | None = None
     solution_limits: str = "respect"
+    redundancy: Redundancy | None = None
 
     def __post_init__(self) -> None:
         _one_of("solutions", self.solutions, SOLUTIONS)
@@ -115,6 +120,8 @@ class SolutionSet:
         _one_of("limits", self.solution_limits, SOLUTION_LIMITS)
         if self.locked is not None:  # a frozen object holds no dict
             object.__setattr__(self, "locked", MappingProxyType(dict(self.locked)))
+        if self.redundancy is not None:
+            object.__setattr__(self, "redundancy", Redundancy.of(self.redundancy))
 
     @property
     def locked_map(self) -> dict[str, float] | None:
@@ -145,7 +152,7 @@ class CollisionAvoidance:
 _KEYWORDS = {
     **{f.name: ("settings", f.name) for f in dataclasses.fields(IKSettings)},
     "solutions": ("solutions", "solutions"), "method": ("solutions", "method"), "locked": ("solutions", "locked"),
-    "limits": ("solutions", "solution_limits"),
+    "limits": ("solutions", "solution_limits"), "redundancy": ("solutions", "redundancy"),
     "collision_samples": ("collisions", "samples"), "cache_dir": ("collisions", "cache_dir"),
 }
 
@@ -164,7 +171,7 @@ class IKOptions:
         """``(options with the IK keywords of keywords applied, the other keywords)``: the library's
         keywords ``mode``, ``position_tolerance``, ``rotation_tolerance``, ``max_iterations``,
         ``restarts``, ``random_seed``, ``solutions``, ``method``, ``locked``, ``limits``,
-        ``avoid_collisions``, ``collision_samples`` and ``cache_dir`` become fields of the objects;
+        ``redundancy``, ``avoid_collisions``, ``collision_samples`` and ``cache_dir`` become fields of the objects;
         the rest (the query's fields) is returned as is."""
         options = options or cls()
         parts: dict[str, dict[str, Any]] = {"settings": {}, "solutions": {}, "collisions": {}}

@@ -25,9 +25,11 @@ import numpy as np
 from ..algorithms import ik as _ik
 from ..algorithms import ik_redundant as red
 from ..algorithms import ik_self_motion as sm
+from ..algorithms.ik_self_motion_free import best_free
 from ..errors import BudgetError, KinematicsError
 from ..spatial.transforms import inverse_transform
 from .ik_all import IKAllAnswer
+from .ik_options import IKOptions
 from .query import Query
 
 
@@ -50,40 +52,53 @@ class IKRedundantAnswer(IKAllAnswer):
         return out
 
 
-def ik_redundant(query: Query | Any, target: Any, *, redundancy: Any, seed: Any = None, locked: dict | None = None,
-                 limits: str = "respect", mode: str = "pose",
-                 position_tolerance: float = _ik.DEFAULT_POSITION_TOLERANCE,
-                 rotation_tolerance: float = _ik.DEFAULT_ROTATION_TOLERANCE, **options: Any) -> IKRedundantAnswer:
+def ik_redundant(query: Query | Any, target: Any, *, seed: Any = None, options: IKOptions | None = None,
+                 **keywords: Any) -> IKRedundantAnswer:
     """Every solution of the query's redundant chain at ``target`` (one pose or a list), along the
-    self-motion as ``redundancy`` (:class:`~kinematics.algorithms.ik_redundant.Redundancy` or its map
-    ``{parameter, values, intervals, select}``) asks: with ``values`` every solution at each value
+    self-motion as the options' ``redundancy`` (:class:`~kinematics.algorithms.ik_redundant.Redundancy`
+    or its map ``{parameter, values, intervals, select}``; :class:`~kinematics.usecases.ik_options.IKOptions`
+    or its keywords, :meth:`IKOptions.split`) asks: with ``values`` every solution at each value
     (``limits`` as for every solution: ``respect`` lists only in-limit ones, a value outside the
     parameter joint's limits gives none); with ``select`` the one best in-limit solution of each
     target over the whole self-motion (``count`` 0 where none is in the limits); with ``intervals``
-    the in-limit ranges. The query's ``budget.max_batch`` bounds the (target, value) pairs."""
-    spec = red.Redundancy.of(redundancy)
-    query = Query.of(query, **options)
-    if mode != "pose":
+    the in-limit ranges. The query's ``budget.max_batch`` bounds the (target, value) pairs.
+
+    ``avoid_collisions``: with ``values`` the colliding solutions are left out (counted in
+    ``colliding``); with ``select`` the best point free of self-collision
+    (:func:`~kinematics.algorithms.ik_self_motion_free.best_free`); ``intervals`` do not look at
+    collisions and are refused with it."""
+    options, rest = IKOptions.split(options, keywords)
+    wanted, settings = options.solutions, options.settings
+    spec = red.Redundancy.of(wanted.redundancy)
+    query = Query.of(query, **rest)
+    if settings.mode != "pose":
         raise KinematicsError("redundancy: a redundant chain's self-motion is of a pose (mode 'pose')")
     if query.floating_base:
         raise KinematicsError("floating_base: every IK solution needs a fixed base (give the base pose as base)")
+    if options.collisions is not None and spec.intervals:
+        raise KinematicsError("avoid_collisions: the intervals of the self-motion are those of the joint limits "
+                              "(collisions are not looked at); ask values or select with avoid_collisions")
     model = query.robot
+    free = options.collisions.filter(model, query.collision_pairs) if options.collisions is not None else None
     T, is_batch = query.targets(target)
     N = T.shape[0]
     link = query.frame_link()
     seeds = query.seeds(seed, N)
-    motion = red.SelfMotion(model, link, spec.parameter, locked=locked, tool=query.T_tool,
+    limits = wanted.solution_limits
+    motion = red.SelfMotion(model, link, spec.parameter, locked=wanted.locked_map, tool=query.T_tool,
                             seed=None if seeds is None else seeds[0],
-                            position_tolerance=position_tolerance, rotation_tolerance=rotation_tolerance)
+                            position_tolerance=settings.position_tolerance,
+                            rotation_tolerance=settings.rotation_tolerance)
     B = query.base_poses(N)
     T_root = T if B is None else np.matmul(inverse_transform(B), T)
-    pieces = branches = None
+    pieces = branches = colliding = None
     if spec.intervals or spec.select:
         pieces, branches = sm.intervals(motion, T_root)
     intervals = [sm.merged(p) for p in pieces] if spec.intervals else None
     if spec.select:
         goal = sm.Objective(spec.select, _seed(model, seeds) if spec.select == "nearest" else None)
-        found = sm.best(motion, T_root, goal, pieces, branches)
+        found = (sm.best(motion, T_root, goal, pieces, branches) if free is None
+                 else best_free(motion, T_root, goal, free, pieces, branches))
         arrays = _one_each(motion, T_root, found, model.dof)
         family, method = motion.family_name(), "analytic"
     elif spec.values is not None:
@@ -94,14 +109,35 @@ def ik_redundant(query: Query | Any, target: Any, *, redundancy: Any, seed: Any 
                               budget="batch", field="redundancy.values", limit=limit)
         q, param, count, within, singular, pe, re, complete, family, method = red.slices(motion, T_root, V, limits)
         arrays = (q, param, count, within, singular, pe, re, complete)
+        if free is not None:
+            arrays, colliding = _leave_out(arrays, free)
         family = family or motion.family_name()
     else:
         arrays = _one_each(motion, T_root, [None] * N, model.dof)
         family, method = motion.family_name(), "analytic"
     q, param, count, within, singular, pe, re, complete = arrays
-    return IKRedundantAnswer(q, count, within, singular, pe, re, complete, model=model, link=link, mode=mode,
-                             is_batch=is_batch, targets=T, family=family, method=method, locked=dict(motion.locked),
-                             parameter=param, parameter_name=motion.joint, intervals=intervals, select=spec.select)
+    return IKRedundantAnswer(q, count, within, singular, pe, re, complete, model=model, link=link,
+                             mode=settings.mode, is_batch=is_batch, targets=T, family=family, method=method,
+                             locked=dict(motion.locked), colliding=colliding, parameter=param,
+                             parameter_name=motion.joint, intervals=intervals, select=spec.select)
+
+
+def _leave_out(arrays, free):
+    """The padded slices ``arrays`` (q, parameter, count, within, singular, position_error, rotation_error,
+    complete) without their solutions in self-collision, and how many each target lost (N,)."""
+    q, param, count, within, singular, pe, re, complete = arrays
+    listed = np.arange(q.shape[1])[None, :] < count[:, None]
+    keep = listed.copy()
+    if listed.any():
+        keep[listed] = np.asarray(free(q[listed]), dtype=bool)
+    order = np.argsort(~keep, axis=1, kind="stable")  # the kept ones first, in their order
+    kept = keep.sum(axis=1)
+    take = lambda a: np.take_along_axis(a, order[..., None] if a.ndim == 3 else order, axis=1)  # noqa: E731
+    q, param, within, singular, pe, re = (take(a) for a in (q, param, within, singular, pe, re))
+    gone = np.arange(q.shape[1])[None, :] >= kept[:, None]
+    q[gone], param[gone], pe[gone], re[gone] = np.nan, np.nan, np.nan, np.nan
+    within[gone] = singular[gone] = False
+    return (q, param, kept.astype(np.int64), within, singular, pe, re, complete), (count - kept).astype(np.int64)
 
 
 def _seed(model, seeds) -> np.ndarray:

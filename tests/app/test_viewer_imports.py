@@ -1,10 +1,11 @@
-"""The viewer's ES modules (app/static/viewer/*.js) import each other without new cycles.
+"""The viewer's ES modules (app/static/viewer/*.js) import each other without a cycle, and share
+mutable state only through state.js.
 
 The imports are read from the source (static `import ... from "./x.js"` and `export ... from`),
-and the cycles are the strongly connected components of that graph. One circle remains from
-before (the model state of robot.js shared with the IK, ghost, path, velocity and workspace
-modules): it is listed here so that it can only shrink; any other cycle, or that one grown,
-fails. The loader / closed-forms circle is gone (the link <select> is link-options.js)."""
+and the cycles are the strongly connected components of that graph: there must be none. A module
+exports no `let` (or `var`) binding: what several modules change (the model shown, its sliders,
+poses, size, load token) is a field of state.js's `current` object, and state.js imports nothing,
+so no circle can run through it."""
 
 from __future__ import annotations
 
@@ -15,8 +16,11 @@ from tests.paths import REPO
 VIEWER = REPO / "app" / "static" / "viewer"
 IMPORT = re.compile(r"""^\s*(?:import|export)\b[^;]*?\bfrom\s*["']\./([\w.-]+\.js)["']|^\s*import\s*["']\./([\w.-]+\.js)["']""",
                     re.MULTILINE)
-#: the one circle left: its modules share robot.js's exported mutable bindings (to be removed, never grown)
-KNOWN_CIRCLE = frozenset({"robot.js", "ik.js", "ghosts.js", "path.js", "velocity.js", "workspace.js"})
+#: `export let x`, `export var x, y`: a binding other modules would see change
+EXPORTED_MUTABLE = re.compile(r"^\s*export\s+(?:let|var)\b", re.MULTILINE)
+#: `export { a, b as c }` (a list naming local bindings) and the module's own `let` / `var` names
+EXPORT_LIST = re.compile(r"^\s*export\s*\{([^}]*)\}\s*(?:;|$)", re.MULTILINE)
+MUTABLE_DECLARATION = re.compile(r"^\s*(?:let|var)\s+([\w$]+)", re.MULTILINE)
 
 
 def imports() -> dict[str, set[str]]:
@@ -71,7 +75,33 @@ def test_the_cycle_finder_finds_a_cycle():
     assert cycles({"a.js": {"b.js"}, "b.js": set()}) == []
 
 
-def test_no_new_import_cycle():
-    found = cycles(imports())
-    other = [sorted(c) for c in found if not c <= KNOWN_CIRCLE]
-    assert other == [], f"import cycles among the viewer's modules: {other}"
+def test_no_import_cycle():
+    found = [sorted(c) for c in cycles(imports())]
+    assert found == [], f"import cycles among the viewer's modules: {found}"
+
+
+def mutable_exports(source: str) -> list[str]:
+    """The `let` / `var` bindings a module's source exports (by declaration or in an export list)."""
+    found = [m.group(0).strip() for m in EXPORTED_MUTABLE.finditer(source)]
+    mutable = set(MUTABLE_DECLARATION.findall(source))
+    for names in EXPORT_LIST.findall(source):
+        for name in names.split(","):
+            local = name.split(" as ")[0].strip()
+            if local in mutable:
+                found.append(local)
+    return found
+
+
+def test_the_mutable_export_finder_finds_them():
+    assert mutable_exports("export let a = 1;\nexport const b = 2;\n") == ["export let"]
+    assert mutable_exports("let a = 1;\nconst b = 2;\nexport { a as c, b };\n") == ["a"]
+    assert mutable_exports("let a = 1;\nexport const current = { a };\nexport function f() { a += 1; }\n") == []
+
+
+def test_no_module_exports_a_mutable_binding():
+    found = {path.name: names for path in sorted(VIEWER.glob("*.js")) if (names := mutable_exports(path.read_text()))}
+    assert found == {}, f"modules exporting let/var bindings (share them through state.js instead): {found}"
+
+
+def test_the_shared_state_imports_no_module():
+    assert imports()["state.js"] == set()

@@ -12,7 +12,7 @@ import { api, showError } from "./api.js";
 import { $, state } from "./config.js";
 import { fillLinkOptions } from "./link-options.js";
 import { loadModel } from "./loader.js";
-import { model } from "./robot.js";
+import { current } from "./state.js";
 
 // the SVG namespace, as the HTML parser gives it to an <svg> element (no URL in our files)
 const SVG = (() => { const t = document.createElement("template"); t.innerHTML = "<svg></svg>"; return t.content.firstChild.namespaceURI; })();
@@ -29,9 +29,9 @@ function setCalStatus(text, kind = "") {
 /** The link picker follows the model shown (filled when the tab opens or a calibration starts). */
 function ensureLinks() {
   const select = $("cal-link");
-  if (!model || select.dataset.model === model.id) return;
-  fillLinkOptions(select, model);
-  select.dataset.model = model.id;
+  if (!current.model || select.dataset.model === current.model.id) return;
+  fillLinkOptions(select, current.model);
+  select.dataset.model = current.model.id;
 }
 
 /** A length in metres as um or mm, for the axis and the summary. */
@@ -151,9 +151,9 @@ function requestOf(text) {
 }
 
 export async function runCalibration() {
-  if (!model) return null;
+  if (!current.model) return null;
   ensureLinks();
-  const id = model.id;
+  const id = current.model.id;
   let req;
   try {
     req = requestOf($("cal-measurements").value);
@@ -200,7 +200,7 @@ export async function loadExample() {
   const op = spec.paths["/models/{model_id}/calibrate"].post;
   const example = op.requestBody.content["application/json"].examples.ur5_positions.value;
   $("cal-measurements").value = JSON.stringify(example.measurements, null, 0).replace(/\},\{/g, "},\n{");
-  if (model && model.id !== "ur5") setCalStatus("The example measures a UR5: open ur5 to calibrate it.", "warn");
+  if (current.model && current.model.id !== "ur5") setCalStatus("The example measures a UR5: open ur5 to calibrate it.", "warn");
   else { ensureLinks(); $("cal-link").value = example.link; setCalStatus(`${example.measurements.length} measurements of a UR5 as built.`); }
 }
 
@@ -216,8 +216,8 @@ $("cal-file").addEventListener("change", () => {
 $("cal-open").addEventListener("click", () => { if (lastAnswer) loadModel(lastAnswer.model); });
 document.querySelector('.tabs button[data-tab="calibration"]').addEventListener("click", ensureLinks);
 
-// Test hook entries (window.viewerTest is made by ik.js, which is evaluated before this module).
-Object.assign(window.viewerTest, {
+// Test hook entries (merged into window.viewerTest, made by test-hook.js or here first).
+window.viewerTest = Object.assign(window.viewerTest || {}, {
   calibrationExample: async () => { await loadExample(); return $("cal-measurements").value.length; },
   calibrate: () => runCalibration(),
 });

@@ -4,11 +4,11 @@
 import { api } from "./api.js";
 import { $, state } from "./config.js";
 import { fillLinkOptions } from "./link-options.js";
-import { model } from "./robot.js";
+import { current } from "./state.js";
 
 // ---------------------------------------------------------------------------- closed forms (KaTeX)
 export const PROBLEM_PREFIX = "urn:kinematics:problem:";
-export let cfSeq = 0;
+let cfSeq = 0;
 
 /** Typeset `tex` into `element` with the vendored KaTeX (DOM nodes: no inline style attributes). */
 export function typeset(tex, element) {
@@ -77,7 +77,7 @@ export function fillClosedFormTips(info) {
 }
 
 export async function deriveClosedForm() {
-  if (!model) return;
+  if (!current.model) return;
   const seq = ++cfSeq;
   const tip = $("cf-tip").value;
   const factors = $("cf-factors").checked;
@@ -89,12 +89,12 @@ export async function deriveClosedForm() {
   $("cf-derive").disabled = true;
   state.cfRequests += 1;
   try {
-    const body = await api(`/models/${encodeURIComponent(model.id)}/symbolic`, {
+    const body = await api(`/models/${encodeURIComponent(current.model.id)}/symbolic`, {
       method: "POST", body: { tip, what, format: "latex", simplify: $("cf-simplify").checked },
     });
     if (seq !== cfSeq) return;
     const count = renderClosedForm($("cf-output"), body, { factors, jacobian });
-    status.textContent = `${model.id}: ${body.root} to ${body.tip}, ${body.joint_variables.length} joint variable(s).`;
+    status.textContent = `${current.model.id}: ${body.root} to ${body.tip}, ${body.joint_variables.length} joint variable(s).`;
     state.closedForm = { tip, ok: true, items: count, katex: $("cf-output").querySelectorAll(".katex").length,
       status: status.textContent };
   } catch (err) {

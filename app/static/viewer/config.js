@@ -21,6 +21,9 @@ export const GHOST_DEBOUNCE_MS = 150;           // every-solution request: this 
 export const GHOST_MAX_DRAWN = 64;               // ghosts drawn at most (the list holds every solution)
 export const GHOST_OPACITY = 0.3;                // a ghost arm; the one the robot is in is fainter
 export const GHOST_COLORS = { free: 0x3b82f6, colliding: 0xd62728, unknown: 0x7c8aa5 };
+export const SELF_MOTION_DEBOUNCE_MS = 120;      // a self-motion slider move: asked this long after it rests (one in flight)
+export const SELF_MOTION_TRACK_STEP = 0.02;      // the robot follows its branch through slices this far apart (rad, m)
+export const SELF_MOTION_MAX_SLICES = 64;        // ... and at most this many in one request
 export const PATH_FRAME_MS = 40;                 // path playback: one row per this
 export const FIT_DIRECTION = [1.0, -1.3, 0.8];   // the view direction (from the model) of a freshly loaded model
 export const FIT_MARGIN = 1.15;                  // the bounding sphere fills 1 / FIT_MARGIN of the narrower field of view
@@ -60,6 +63,10 @@ export const state = {
   ghostRequests: 0,
   ghostResponses: 0,
   ghostBusy: false,
+  selfMotion: null,   // {link, joint, lower, upper, value, count, chosen, intervals, target, q, track}
+  selfMotionRequests: 0,
+  selfMotionResponses: 0,
+  selfMotionBusy: false,
   path: null,         // {rows, targets, row, playing, complete, fraction, stopped, waypoints}
   pathRequests: 0,
   pathResponses: 0,

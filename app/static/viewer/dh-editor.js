@@ -5,7 +5,7 @@ import { api, clearError, showError } from "./api.js";
 import { closedFormProblem, renderClosedForm } from "./closed-forms.js";
 import { $, state } from "./config.js";
 import { downloadUrdf, loadCatalogue, loadModel } from "./loader.js";
-import { model } from "./robot.js";
+import { current } from "./state.js";
 
 // ---------------------------------------------------------------------------- DH editor
 export const DH_EXAMPLE = [   // a planar 2R arm with a prismatic wrist lift (standard, degrees)
@@ -143,7 +143,7 @@ function readDhTableOrShow() {
 }
 
 $("dh-add").addEventListener("click", () => addDhRow());
-$("dh-edit-current").addEventListener("click", () => { if (model && model.dh_table) fillDhEditor(model.dh_table); });
+$("dh-edit-current").addEventListener("click", () => { if (current.model && current.model.dh_table) fillDhEditor(current.model.dh_table); });
 $("dh-build").addEventListener("click", async () => {
   const result = $("dh-result");
   result.className = "";

@@ -1,6 +1,8 @@
 // Every IK solution of the target as a translucent ghost arm: POST /models/{id}/ik with
 // solutions "all", GET /models/{id}/ik/family, FK of the solutions, and (models with collision
-// geometry) POST /models/{id}/collision to tint the colliding ones red.
+// geometry) POST /models/{id}/collision to tint the colliding ones red. On a redundant chain with no
+// joint locked the solutions are infinitely many: the target goes to self-motion.js (event
+// "self-motion"), which asks slice by slice and has them drawn here (showSolutions).
 // (A module of the model viewer; viewer.js is the entry point.)
 //
 // A ghost is a copy of what robot.js draws for each link (its visuals and meshes, sharing their
@@ -13,12 +15,18 @@ import * as THREE from "three";
 import { api } from "./api.js";
 import { $, GHOST_COLORS, GHOST_DEBOUNCE_MS, GHOST_MAX_DRAWN, GHOST_OPACITY, state } from "./config.js";
 import { ik, ikTargetPose } from "./ik.js";
-import { currentQ, linkGroups, loadToken, model, modelSize, setAll, sliders } from "./robot.js";
+import { currentQ, setAll } from "./robot.js";
 import { Z_AXIS, camera, gizmo, matrixFromRows, renderer, requestRender, scene } from "./scene.js";
+import { current, emit, on } from "./state.js";
 
 export const ghostRoot = new THREE.Group();
 ghostRoot.name = "ik-ghosts";
 scene.add(ghostRoot);
+current.framed.push((box) => {           // a camera fit frames the ghosts shown too
+  if (!ghostRoot.children.length) return;
+  ghostRoot.updateMatrixWorld(true);
+  box.expandByObject(ghostRoot);
+});
 
 const ghosts = {
   seq: 0,               // the latest request; older answers are dropped
@@ -61,12 +69,13 @@ export function clearGhosts() {
   $("ghost-list").replaceChildren();
   setGhostStatus("");
   state.ghosts = null;
+  emit("self-motion", null);
   updateBusy();
   requestRender();
 }
 
 function ghostsWanted() {
-  return ik.enabled && $("ghost-enable").checked && model && model.joint_names.length > 0;
+  return ik.enabled && $("ghost-enable").checked && current.model && current.model.joint_names.length > 0;
 }
 
 /** The target moved (or the options changed): ask for every solution once it rests. */
@@ -81,16 +90,16 @@ export function requestGhosts() {
 /** The Lock picker lists the model's joints (filled when the model changes). */
 function ensureLockOptions() {
   const select = $("ghost-locked");
-  if (select.dataset.model === model.id) return;
+  if (select.dataset.model === current.model.id) return;
   select.replaceChildren(new Option("none", ""));
-  for (const name of model.joint_names) select.appendChild(new Option(name, name));
-  select.dataset.model = model.id;
+  for (const name of current.model.joint_names) select.appendChild(new Option(name, name));
+  select.dataset.model = current.model.id;
 }
 
 /** `{joint: value}` of the Lock picker, the joint held at its current value, or null. */
 function lockedJoints() {
   const name = $("ghost-locked").value;
-  const slider = sliders.find((s) => s.name === name);
+  const slider = current.sliders.find((s) => s.name === name);
   return slider ? { [name]: slider.value } : null;
 }
 
@@ -126,48 +135,82 @@ function familyText(f) {
 async function sendGhosts() {
   if (!ghostsWanted()) return;
   const seq = ghosts.seq;
-  const token = loadToken;
-  const id = model.id;
+  const token = current.loadToken;
+  const id = current.model.id;
   const link = state.selectedLink;
   const limits = $("ghost-limits").value;
-  const stale = () => seq !== ghosts.seq || token !== loadToken;
+  const stale = () => seq !== ghosts.seq || token !== current.loadToken;
   if ($("ik-mode").value !== "pose") {
     disposeGhosts();
     $("ghost-list").replaceChildren();
     setGhostStatus("Every solution needs a pose target (Solve: pose).", "warn");
     state.ghosts = { count: null, error: "position target", drawn: 0, solutions: [] };
+    emit("self-motion", null);
     return;
   }
   ensureLockOptions();
   const locked = lockedJoints();
-  const body = { link, target: ikTargetPose(), seed: currentQ(), solutions: "all", limits };
+  const target = ikTargetPose();
+  const seed = currentQ();
+  const body = { link, target, seed, solutions: "all", limits };
   if (locked) body.locked = locked;
   ghosts.inFlight += 1;
   state.ghostRequests += 1;
   updateBusy();
   setGhostStatus("Every solution: solving…");
   try {
-    const [answer, family] = await Promise.all([
-      api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body }),
-      familyOf(id, link, locked).catch(() => null),
-    ]);
+    const family = await familyOf(id, link, locked).catch(() => null);
     if (stale()) return;
+    if (family && family.redundant && !locked) {   // a self-motion: asked for and drawn slice by slice
+      emit("self-motion", { link, target, seed, limits, family });
+      return;
+    }
+    emit("self-motion", null);
+    const answer = await api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body });
+    if (stale()) return;
+    await showSolutions(answer, { family, limits, link, seed, locked });
+  } catch (err) {
+    if (stale()) return;
+    // Not every chain has a finite set (a position target, 8 free joints): said here, no banner.
+    disposeGhosts();
+    $("ghost-list").replaceChildren();
+    setGhostStatus(`Every solution: ${err.message.replace(/^POST \S+: /, "")}`, "warn");
+    state.ghosts = { count: null, error: err.message, drawn: 0, solutions: [] };
+  } finally {
+    ghosts.inFlight -= 1;
+    state.ghostResponses += 1;
+    updateBusy();
+  }
+}
+
+/** Draw the solutions of `answer` (POST /ik, solutions "all") as ghosts, tinted by POST /collision,
+ * and list them; `info`: the family answer (or null: the answer's family is named), limits, link,
+ * seed, locked joints, and for a self-motion slice `label` ("at q7 = 0.700") and `parameter`.
+ * Resolves true once drawn, false when the target or the model changed meanwhile. */
+export async function showSolutions(answer, { family = null, limits, link, seed, locked = null, label = "", parameter = null }) {
+  const seq = ghosts.seq;
+  const token = current.loadToken;
+  const id = current.model.id;
+  const stale = () => seq !== ghosts.seq || token !== current.loadToken;
+  ghosts.inFlight += 1;
+  updateBusy();
+  try {
     const solutions = answer.solutions.map((s) => ({ ...s, colliding: null }));
     const drawn = solutions.slice(0, GHOST_MAX_DRAWN);
     let poses = [];
     if (drawn.length) {
       const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q: drawn.map((s) => s.q), links: "all" } });
-      if (stale()) return;
+      if (stale()) return false;
       poses = fk.poses;
     }
     if (solutions.length && await hasCollisionGeometry(id)) {
       try {
         const col = await api(`/models/${encodeURIComponent(id)}/collision`, { method: "POST", body: { q: solutions.map((s) => s.q) } });
-        if (stale()) return;
+        if (stale()) return false;
         col.colliding.forEach((c, i) => { solutions[i].colliding = Boolean(c); });
       } catch (_) { /* the tint is a bonus: the ghosts stay grey-blue */ }
     }
-    if (stale()) return;
+    if (stale()) return false;
     ghosts.solutions = solutions;
     ghosts.jointNames = answer.joint_names;
     ghosts.chosen = -1;
@@ -177,27 +220,21 @@ async function sendGhosts() {
     const checked = solutions.some((s) => s.colliding !== null);
     const more = solutions.length > drawn.length ? ` (the first ${drawn.length} drawn)` : "";
     const n = answer.count;
-    setGhostStatus(`${n} solution${n === 1 ? "" : "s"}${more}${familyText(family)}`
+    const named = family ? familyText(family) : (answer.family ? ` · family ${answer.family}` : "");
+    setGhostStatus(`${n} solution${n === 1 ? "" : "s"}${label ? ` ${label}` : ""}${more}${named}`
       + (checked ? ` · ${colliding} colliding` : ""), n ? "" : "warn");
     state.ghosts = {
-      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed: body.seed,
-      locked: locked || {},
+      count: n, drawn: drawn.length, family: family ? family.family : answer.family, limits, link, seed,
+      locked: locked || {}, parameter,
       method: answer.method, colliding: checked ? colliding : null, chosen: -1,
       solutions: solutions.map((s) => ({
         q: s.q, within_limits: s.within_limits, singular: s.singular, colliding: s.colliding,
         color: `#${ghostColor(s).toString(16).padStart(6, "0")}`,
       })),
     };
-  } catch (err) {
-    if (stale()) return;
-    // Not every chain has a finite set (a redundant arm, a position target): said here, no banner.
-    disposeGhosts();
-    $("ghost-list").replaceChildren();
-    setGhostStatus(`Every solution: ${err.message.replace(/^POST \S+: /, "")}`, "warn");
-    state.ghosts = { count: null, error: err.message, drawn: 0, solutions: [] };
+    return true;
   } finally {
     ghosts.inFlight -= 1;
-    state.ghostResponses += 1;
     updateBusy();
   }
 }
@@ -213,14 +250,14 @@ let ballGeometry = null;
 let rodSize = 0;
 
 function ghostGeometries() {
-  if (rodSize !== modelSize) {
+  if (rodSize !== current.modelSize) {
     if (rodGeometry) { rodGeometry.dispose(); ballGeometry.dispose(); }
-    const r = modelSize * 0.011;
+    const r = current.modelSize * 0.011;
     rodGeometry = new THREE.CylinderGeometry(r, r, 1, 10);
     rodGeometry.rotateX(Math.PI / 2);
     rodGeometry.translate(0, 0, 0.5);
     ballGeometry = new THREE.SphereGeometry(r * 1.8, 12, 8);
-    rodSize = modelSize;
+    rodSize = current.modelSize;
   }
   return [rodGeometry, ballGeometry];
 }
@@ -236,7 +273,7 @@ function drawGhosts(posesList) {
     const ghost = new THREE.Group();
     ghost.name = `ghost-${index}`;
     ghost.userData = { index, material };
-    for (const [link, group] of Object.entries(linkGroups)) {
+    for (const [link, group] of Object.entries(current.linkGroups)) {
       if (!poses[link]) continue;
       const copy = group.clone(true);
       for (const triad of copy.children.filter((c) => c.name === "triad")) copy.remove(triad);
@@ -246,7 +283,7 @@ function drawGhosts(posesList) {
       copy.matrix.copy(matrixFromRows(poses[link].matrix));
       ghost.add(copy);
     }
-    for (const joint of model.joints) {
+    for (const joint of current.model.joints) {
       const a = new THREE.Vector3(...poses[joint.parent].position);
       const b = new THREE.Vector3(...poses[joint.child].position);
       const length = a.distanceTo(b);
@@ -297,7 +334,7 @@ export function chooseGhost(index) {
   const s = ghosts.solutions[index];
   if (!s) return false;
   const byName = Object.fromEntries(ghosts.jointNames.map((name, i) => [name, s.q[i]]));
-  setAll(sliders.map((sl) => (Number.isFinite(byName[sl.name]) ? byName[sl.name] : sl.value)), { fromIk: true });
+  setAll(current.sliders.map((sl) => (Number.isFinite(byName[sl.name]) ? byName[sl.name] : sl.value)), { fromIk: true });
   ghosts.chosen = index;
   for (const ghost of ghostRoot.children) {
     ghost.userData.material.opacity = ghost.userData.index === index ? GHOST_OPACITY / 3 : GHOST_OPACITY;
@@ -370,6 +407,8 @@ renderer.domElement.addEventListener("pointerup", (e) => {
   if (index >= 0) chooseGhost(index);
 });
 
+on("target-moved", () => requestGhosts());   // ik.js: once the target rests (debounced)
+on("ik-disabled", () => clearGhosts());
 $("ghost-enable").addEventListener("change", () => requestGhosts());
 $("ghost-limits").addEventListener("change", () => requestGhosts());
 $("ghost-locked").addEventListener("change", () => requestGhosts());

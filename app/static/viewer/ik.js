@@ -1,15 +1,12 @@
-// The IK target: a gizmo dragged in the world, solved by POST /models/{id}/ik; the test hook window.viewerTest.
+// The IK target: a gizmo dragged in the world, solved by POST /models/{id}/ik.
 // (A module of the model viewer; viewer.js is the entry point.)
 
 import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, IK_DRAG_RESTARTS, IK_TARGET_OPACITY, IK_THROTTLE_MS, SELECTED_TRIAD_SCALE, TRIAD_FRACTION, state } from "./config.js";
-import { currentQ, fitCamera, fkInFlight, fkPending, lastPoses, loadToken, model, modelSize, setAll, sliders } from "./robot.js";
-import { chooseGhost, clearGhosts, ghostPoints, ghostsBusy, requestGhosts } from "./ghosts.js";
-import { pathBusy, pathTest } from "./path.js";
-import { COLORS, camera, controls, gizmo, makeTriad, matrixFromRows, renderer, requestRender, scene, unitArrowGeometry } from "./scene.js";
-import { qdotInputs, requestVelocity, velocityInFlight, velocityPending } from "./velocity.js";
-import { sampleWorkspace } from "./workspace.js";
+import { currentQ, setAll } from "./robot.js";
+import { COLORS, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
+import { current, emit, on } from "./state.js";
 
 // ---------------------------------------------------------------------------- IK target
 // A TransformControls gizmo (three.js addon, vendored) moves `ikTarget`, a scene object drawn as
@@ -54,7 +51,7 @@ gizmo.addEventListener("objectChange", () => { if (gizmo.dragging) requestIk(); 
 
 /** The target's ghost triad, sized like the selected link's triad. */
 export function ensureTargetMarker() {
-  const size = modelSize * TRIAD_FRACTION * SELECTED_TRIAD_SCALE * 1.25;
+  const size = current.modelSize * TRIAD_FRACTION * SELECTED_TRIAD_SCALE * 1.25;
   if (ik.markerSize === size && ikTarget.children.length) return;
   for (const child of [...ikTarget.children]) {
     ikTarget.remove(child);
@@ -69,13 +66,13 @@ export function ensureTargetMarker() {
 
 /** Put the target on the selected link's current pose (from the last FK answer). */
 export function placeTargetAtLink() {
-  const pose = lastPoses && lastPoses[state.selectedLink];
+  const pose = current.lastPoses && current.lastPoses[state.selectedLink];
   if (!pose) return false;
   matrixFromRows(pose.matrix).decompose(ikTarget.position, ikTarget.quaternion, ikTarget.scale);
   ikTarget.scale.set(1, 1, 1);
   ikTarget.updateMatrixWorld(true);
   requestRender();
-  requestGhosts();                       // every solution of the target where it is now
+  emit("target-moved");                  // every solution of the target where it is now (ghosts.js)
   return true;
 }
 
@@ -105,14 +102,14 @@ export function resetIkTarget() {
   placeTargetAtLink();
   if (ik.enabled) {
     const link = state.selectedLink;
-    setIkStatus(model && model.joint_names.length === 0
+    setIkStatus(current.model && current.model.joint_names.length === 0
       ? "IK: this model has no moving joint."
       : `IK: drag the gizmo to move the target of ${link}.`);
   }
 }
 
 export function setIkEnabled(on) {
-  ik.enabled = Boolean(on) && model !== null;
+  ik.enabled = Boolean(on) && current.model !== null;
   $("ik-enable").checked = ik.enabled;
   state.ikEnabled = ik.enabled;
   if (ik.enabled) {
@@ -123,7 +120,7 @@ export function setIkEnabled(on) {
     gizmo.detach();
     controls.enabled = true;
     ikTarget.visible = false;
-    clearGhosts();
+    emit("ik-disabled");
     ik.seq += 1;
     ik.dirty = false;
     clearTimeout(ik.timer);
@@ -136,11 +133,11 @@ export function setIkEnabled(on) {
 
 /** The target moved: ask for IK now (drag end) or when the throttle allows (while dragging). */
 export function requestIk({ final = false } = {}) {
-  if (!ik.enabled || !model || model.joint_names.length === 0) return;
+  if (!ik.enabled || !current.model || current.model.joint_names.length === 0) return;
   ik.dirty = true;
   ik.final = ik.final || final;
   pumpIk();
-  requestGhosts();                       // debounced: once the target rests
+  emit("target-moved");                  // ghosts.js asks once the target rests (debounced)
 }
 
 export function pumpIk() {
@@ -163,8 +160,8 @@ export function fmtError(x) {
 }
 
 export async function sendIk() {
-  const id = model.id;
-  const token = loadToken;
+  const id = current.model.id;
+  const token = current.loadToken;
   const seq = ik.seq;
   const link = state.selectedLink;
   const mode = $("ik-mode").value;
@@ -182,9 +179,9 @@ export async function sendIk() {
   try {
     const answer = await api(`/models/${encodeURIComponent(id)}/ik`, { method: "POST", body });
     state.ikResponses += 1;
-    if (token !== loadToken || seq !== ik.seq || !ik.enabled) return;
+    if (token !== current.loadToken || seq !== ik.seq || !ik.enabled) return;
     const byName = Object.fromEntries(answer.joint_names.map((name, i) => [name, answer.q[i]]));
-    const q = sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
+    const q = current.sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
     state.ikLast = {
       link, mode, target, seed, q, final, success: answer.success, position_error: answer.position_error,
       rotation_error: answer.rotation_error, iterations: answer.iterations,
@@ -200,7 +197,7 @@ export async function sendIk() {
     }
   } catch (err) {
     state.ikResponses += 1;
-    if (token !== loadToken || seq !== ik.seq) return;
+    if (token !== current.loadToken || seq !== ik.seq) return;
     setIkStatus("IK: the request failed (see the message above).", "warn");
     showError(err);
   } finally {
@@ -214,95 +211,6 @@ $("ik-enable").addEventListener("change", () => setIkEnabled($("ik-enable").chec
 $("ik-gizmo-mode").addEventListener("change", () => { gizmo.setMode($("ik-gizmo-mode").value); requestRender(); });
 $("ik-mode").addEventListener("change", () => requestIk({ final: true }));
 $("ik-reset").addEventListener("click", () => { if (ik.enabled) resetIkTarget(); });
-
-// Test hook for the IK target (tests/app/test_viewer.py); also handy from the browser console.
-export function settled() {
-  return !ikBusy() && !ghostsBusy() && !pathBusy() && !fkInFlight && !fkPending;
-}
-
-export async function whenSettled() {
-  while (!settled()) await new Promise((resolve) => setTimeout(resolve, 10));
-}
-
-window.viewerTest = {
-  setIkEnabled(on) { setIkEnabled(on); return ik.enabled; },
-  setGizmoMode(mode) { $("ik-gizmo-mode").value = mode; gizmo.setMode(mode); requestRender(); },
-  /** Move the target to `position` [x, y, z] and `quaternion` {w, x, y, z} (world frame) and
-   * run what a drag end runs; resolves when the answer is drawn. */
-  async ikTo(position, quaternion) {
-    if (!ik.enabled) throw new Error("the IK target is off");
-    ikTarget.position.set(...position);
-    ikTarget.quaternion.set(quaternion.x, quaternion.y, quaternion.z, quaternion.w).normalize();
-    ikTarget.updateMatrixWorld(true);
-    requestRender();
-    requestIk({ final: true });
-    await whenSettled();
-    return { q: currentQ(), status: state.ikStatus, last: state.ikLast };
-  },
-  whenSettled: async () => { await whenSettled(); return true; },
-  /** Every solution of the target (as drawn): window.viewerState.ghosts once settled. */
-  ghosts: () => state.ghosts,
-  /** Make solution `index` the configuration, as a click on its ghost does; resolves when drawn. */
-  async chooseGhost(index) { chooseGhost(index); await whenSettled(); return currentQ(); },
-  /** Client (CSS pixel) points on ghost `index` where a click hits it first. */
-  ghostPoints: (index) => ghostPoints(index),
-  ...pathTest,
-  /** Canvas (CSS pixel) coordinates of every link origin as the camera sees it now, and the
-   * canvas size: {width, height, points: {link: [x, y, depth]}} (depth in (-1, 1) when between
-   * the near and far planes). */
-  projectLinks() {
-    camera.updateMatrixWorld();
-    const rect = renderer.domElement.getBoundingClientRect();
-    const points = {};
-    for (const [link, pose] of Object.entries(lastPoses || {})) {
-      const p = new THREE.Vector3(...pose.position).project(camera);
-      points[link] = [(p.x + 1) / 2 * rect.width, (1 - p.y) / 2 * rect.height, p.z];
-    }
-    return { width: rect.width, height: rect.height, points };
-  },
-  fit: () => { fitCamera(); return state.fits; },
-  /** Move the camera (a zoom or orbit by hand), e.g. to test the fit button. */
-  moveCamera(position, target) {
-    camera.position.set(...position);
-    controls.target.set(...target);
-    controls.update();
-    requestRender();
-  },
-  async sampleWorkspace(samples = 5000) {
-    $("ws-samples").value = String(samples);
-    const before = state.wsResponses;
-    sampleWorkspace();
-    while (state.wsResponses === before) await new Promise((resolve) => setTimeout(resolve, 20));
-    return state.workspace;
-  },
-  /** Set the joint velocities and wait for their arrows. */
-  async setQdot(values) {
-    qdotInputs.forEach((input, i) => { input.value = String(values[i]); });
-    const before = state.velocityResponses;
-    requestVelocity();
-    if (values.every((v) => v === 0)) return state.lastVelocity;
-    while (state.velocityResponses === before || velocityInFlight || velocityPending) {
-      await new Promise((resolve) => setTimeout(resolve, 20));
-    }
-    return state.lastVelocity;
-  },
-  /** The exact joint values (the thumbs of the range inputs are rounded to their step). */
-  sliderValues: () => currentQ(),
-  targetPose: () => ikTargetPose(),
-  /** Client (CSS pixel) coordinates of a point on the translate gizmo's handle for `axis`
-   * ("X", "Y" or "Z"), for a real mouse drag. Mirrors TransformControls' own handle scale:
-   * its pickers run from 0 to 0.6 along the axis in units of factor * size / 4. */
-  gizmoHandlePoint(axis = "X", along = 0.45) {
-    camera.updateMatrixWorld();
-    const factor = ikTarget.position.distanceTo(camera.position)
-      * Math.min(1.9 * Math.tan(Math.PI * camera.fov / 360) / camera.zoom, 7);
-    const unit = { X: [1, 0, 0], Y: [0, 1, 0], Z: [0, 0, 1] }[axis];
-    const point = new THREE.Vector3(...unit).multiplyScalar(along * factor * gizmo.size / 4).add(ikTarget.position);
-    point.project(camera);
-    const rect = renderer.domElement.getBoundingClientRect();
-    return { x: rect.left + (point.x + 1) / 2 * rect.width, y: rect.top + (1 - point.y) / 2 * rect.height };
-  },
-};
-
-// ---------------------------------------------------------------------------- fit
-$("btn-fit").addEventListener("click", () => { if (model) fitCamera(); });
+// A hand-made move of the joints (robot.js): the target follows the link, unless it is being
+// dragged or solved for.
+on("link-moved", () => { if (ik.enabled && !gizmo.dragging && !ikBusy()) placeTargetAtLink(); });

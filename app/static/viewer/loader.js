@@ -6,12 +6,13 @@ import { fillClosedFormTips } from "./closed-forms.js";
 import { $, API_KEY_STORAGE, FIT_DIRECTION, FK_LINKS_ALL, ROOT, state } from "./config.js";
 import { ik, resetIkTarget } from "./ik.js";
 import { clearPath } from "./path.js";
-import { applyPoses, buildRobot, checkCollision, buildSliders, fitCamera, highlightSelected, loadToken, model, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose, sliders } from "./robot.js";
+import { applyPoses, buildRobot, checkCollision, buildSliders, fitCamera, highlightSelected, nextLoadToken, setAll, setModel, showOutOfLimits, showSelectedPose } from "./robot.js";
 import { requestRender, resize } from "./scene.js";
 import { buildQdotInputs } from "./velocity.js";
 import { clearWorkspace } from "./workspace.js";
 import { defaultLink, openingCandidates, openingPose } from "./defaults.js";
 import { fillLinkOptions } from "./link-options.js";
+import { current } from "./state.js";
 
 // ---------------------------------------------------------------------------- links panel
 export function buildLinkList(info) {
@@ -80,12 +81,12 @@ export async function loadModel(id, { push = true } = {}) {
     state.fkRequests += 1;
     const fk = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
     state.fkResponses += 1;
-    if (token !== loadToken) return;
+    if (token !== current.loadToken) return;
     state.lastQ = q;
     setModel(info);
     buildSliders(info, q);
-    if (model.id === undefined) model.id = id;
-    state.modelId = model.id;
+    if (current.model.id === undefined) current.model.id = id;
+    state.modelId = current.model.id;
     buildLinkList(info);
     fillClosedFormTips(info);
     buildRobot(info, visuals, fk.poses);
@@ -97,8 +98,8 @@ export async function loadModel(id, { push = true } = {}) {
     clearPath();
     buildQdotInputs(info);
     showOutOfLimits(fk.out_of_limits || []);
-    $("model-picker").value = model.id;
-    $("model-summary").textContent = `${info.name || model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;
+    $("model-picker").value = current.model.id;
+    $("model-summary").textContent = `${info.name || current.model.id}: ${info.dof} dof, ${info.links.length} links, root ${info.root}`;
     const meshCount = Object.values(visuals).flat().filter((v) => v.kind === "mesh" && !v.url).length;
     const notes = [...(info.warnings || [])];
     if (meshCount) notes.push(`${meshCount} mesh visual(s) not drawn (the service serves them not).`);
@@ -106,13 +107,13 @@ export async function loadModel(id, { push = true } = {}) {
     $("model-warnings").textContent = notes.join(" ");
     $("download-urdf").disabled = false;
     $("dh-edit-current").hidden = !info.dh_table;
-    document.title = `${model.id} - model viewer`;
-    if (push) history.pushState({ id: model.id }, "", `${ROOT}/viewer/${encodeURIComponent(model.id)}`);
+    document.title = `${current.model.id} - model viewer`;
+    if (push) history.pushState({ id: current.model.id }, "", `${ROOT}/viewer/${encodeURIComponent(current.model.id)}`);
     if (ik.enabled) resetIkTarget();
     await showSelectedPose(q);
     requestRender();
     await new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve)));
-    if (token === loadToken) state.ready = true;
+    if (token === current.loadToken) state.ready = true;
   } catch (err) {
     showError(err);
   }
@@ -120,15 +121,15 @@ export async function loadModel(id, { push = true } = {}) {
 
 $("model-picker").addEventListener("change", () => loadModel($("model-picker").value));
 window.addEventListener("popstate", (e) => { if (e.state && e.state.id) loadModel(e.state.id, { push: false }); });
-$("btn-zero").addEventListener("click", () => setAll(sliders.map((s) => Math.min(Math.max(0, s.lower), s.upper))));
-$("btn-random").addEventListener("click", () => setAll(sliders.map((s) => s.lower + Math.random() * (s.upper - s.lower))));
+$("btn-zero").addEventListener("click", () => setAll(current.sliders.map((s) => Math.min(Math.max(0, s.lower), s.upper))));
+$("btn-random").addEventListener("click", () => setAll(current.sliders.map((s) => s.lower + Math.random() * (s.upper - s.lower))));
 $("error-close").addEventListener("click", clearError);
 $("api-key").addEventListener("click", () => {
   const key = window.prompt("API key of the service (sent as X-API-Key; kept for this tab only). Empty to forget it.",
     sessionStorage.getItem(API_KEY_STORAGE) || "");
   if (key === null) return;
   if (key) sessionStorage.setItem(API_KEY_STORAGE, key); else sessionStorage.removeItem(API_KEY_STORAGE);
-  if (model) loadModel(model.id, { push: false }); else start();
+  if (current.model) loadModel(current.model.id, { push: false }); else start();
 });
 
 export async function downloadUrdf(id) {
@@ -146,4 +147,4 @@ export async function downloadUrdf(id) {
     showError(err);
   }
 }
-$("download-urdf").addEventListener("click", () => model && downloadUrdf(model.id));
+$("download-urdf").addEventListener("click", () => current.model && downloadUrdf(current.model.id));

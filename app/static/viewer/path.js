@@ -13,8 +13,9 @@ import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, PATH_FRAME_MS, state } from "./config.js";
 import { ik, ikTargetPose } from "./ik.js";
-import { applyPoses, currentQ, loadToken, model, modelSize, setAll, showSliderValue, sliders } from "./robot.js";
+import { applyPoses, currentQ, setAll, showSliderValue } from "./robot.js";
 import { requestRender, scene } from "./scene.js";
+import { current } from "./state.js";
 
 const pathRoot = new THREE.Group();
 pathRoot.name = "ik-path";
@@ -50,7 +51,7 @@ function clearDrawing() {
 }
 
 function marker(position, color, scale) {
-  const mesh = new THREE.Mesh(new THREE.SphereGeometry(modelSize * scale, 14, 10),
+  const mesh = new THREE.Mesh(new THREE.SphereGeometry(current.modelSize * scale, 14, 10),
     new THREE.MeshBasicMaterial({ color, transparent: true, opacity: 0.85, depthTest: false }));
   mesh.position.set(...position);
   mesh.renderOrder = 2;
@@ -132,7 +133,7 @@ export function clearPath() {
 }
 
 export function addWaypoint() {
-  if (!ik.enabled || !model) { setPathStatus("Tick IK target first: waypoints are poses of the target.", "warn"); return false; }
+  if (!ik.enabled || !current.model) { setPathStatus("Tick IK target first: waypoints are poses of the target.", "warn"); return false; }
   if (path.link !== null && path.link !== state.selectedLink) clearPath();
   if (path.answer) { path.answer = null; path.poses = []; stopTimer(); $("path-play").disabled = true; $("path-row").disabled = true; }
   if (!path.waypoints.length) { path.seed = currentQ(); path.link = state.selectedLink; }
@@ -145,11 +146,11 @@ export function addWaypoint() {
 }
 
 export async function planPath() {
-  if (path.waypoints.length < 2 || !model) return;
+  if (path.waypoints.length < 2 || !current.model) return;
   stopTimer();
-  const token = loadToken;
+  const token = current.loadToken;
   const mine = ++path.token;
-  const id = model.id;
+  const id = current.model.id;
   const body = { link: path.link, waypoints: path.waypoints, seed: path.seed };
   path.inFlight = true;
   state.pathRequests += 1;
@@ -160,7 +161,7 @@ export async function planPath() {
     if (answer.q.length) {
       poses = (await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q: answer.q, links: "all" } })).poses;
     }
-    if (token !== loadToken || mine !== path.token) return;
+    if (token !== current.loadToken || mine !== path.token) return;
     path.answer = answer;
     path.poses = poses;
     path.row = 0;
@@ -180,7 +181,7 @@ export async function planPath() {
     }
     if (rows) showRow(0, { sync: true });
   } catch (err) {
-    if (token !== loadToken || mine !== path.token) return;
+    if (token !== current.loadToken || mine !== path.token) return;
     setPathStatus("The path request failed (see the message above).", "warn");
     showError(err);
   } finally {
@@ -198,11 +199,11 @@ function showRow(i, { sync = false } = {}) {
   path.row = Math.min(Math.max(i, 0), a.q.length - 1);
   const q = a.q[path.row];
   const byName = Object.fromEntries(a.joint_names.map((name, k) => [name, q[k]]));
-  const values = sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
+  const values = current.sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
   if (sync) {
     setAll(values, { fromIk: true });
   } else {
-    sliders.forEach((s, k) => { s.value = values[k]; s.input.value = String(values[k]); showSliderValue(s); });
+    current.sliders.forEach((s, k) => { s.value = values[k]; s.input.value = String(values[k]); showSliderValue(s); });
     state.lastQ = values;
     applyPoses(path.poses[path.row]);
   }
@@ -238,7 +239,7 @@ $("path-play").addEventListener("click", () => playPath());
 $("path-row").addEventListener("input", () => { if (path.playing) stopTimer(); showRow(Number($("path-row").value)); });
 $("path-row").addEventListener("change", () => showRow(Number($("path-row").value), { sync: true }));
 
-// Test hook entries (merged into window.viewerTest by ik.js).
+// Test hook entries (merged into window.viewerTest by test-hook.js).
 export const pathTest = {
   addWaypoint: () => addWaypoint(),
   async planPath() { await planPath(); return state.path; },

@@ -4,36 +4,32 @@
 import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, AXIS_ARROW_FRACTION, DIGITS, FIT_DIRECTION, FIT_MARGIN, FK_LINKS_ALL, JACOBIAN_REFERENCE, SELECTED_TRIAD_SCALE, SLIDER_STEPS, TRIAD_FRACTION, state } from "./config.js";
-import { ghostRoot } from "./ghosts.js";
-import { ik, ikBusy, placeTargetAtLink } from "./ik.js";
-import { COLORS, Z_AXIS, camera, controls, gizmo, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
-import { requestVelocity } from "./velocity.js";
-import { cloud } from "./workspace.js";
+import { COLORS, Z_AXIS, camera, controls, makeTriad, matrixFromRows, requestRender, scene, unitArrowGeometry } from "./scene.js";
+import { current, emit } from "./state.js";
 import { colourLinks, hasServedMeshes, linkColours, linkVisuals, loadMeshes, resetMeshState } from "./meshes.js";
 import { requestCollision, resetCollision } from "./self-collision.js";
 import { initialValue, sliderRange } from "./defaults.js";
 
 // ---------------------------------------------------------------------------- model state
-export let grid = null;                          // ground grid in the world xy plane
-export let robot = null;                         // THREE.Group holding the current model's objects
-export let model = null;       // GET /models/{id}
-export let sliders = [];       // one per entry of joint_names: {name, input, value, lower, upper, type}
-export let linkGroups = {};    // link name -> THREE.Group (matrix = T_world_link)
-export let bones = [];         // {joint, mesh}: a rod from the parent link origin to the child link origin
-export let axisArrows = [];    // {joint, arrow}: the joint axis through the joint (= child link) origin
-export let lastPoses = null;   // link -> pose object of the last FK answer
-export let fkInFlight = false;
-export let fkPending = false;
-export let modelSize = 1;
-export let loadToken = 0;
-export let jacobianSeq = 0;
-export let snapTargetAfterFk = false;  // the next settled FK answer moves the IK target onto the link
+// What other modules read of the model shown (the model, sliders, link groups, poses, size, load
+// token) is `current` (state.js); what only this module draws and counts stays here.
+let grid = null;                          // ground grid in the world xy plane
+let robot = null;                         // THREE.Group holding the current model's objects
+let bones = [];         // {joint, mesh}: a rod from the parent link origin to the child link origin
+let axisArrows = [];    // {joint, arrow}: the joint axis through the joint (= child link) origin
+let fkInFlight = false;
+let fkPending = false;
+let jacobianSeq = 0;
+let snapTargetAfterFk = false;  // the next settled FK answer moves the IK target onto the link
+
+/** An FK request in flight or one waiting for it. */
+export function fkBusy() { return fkInFlight || fkPending; }
 
 /** The model being shown (GET /models/{id}); set by the loader. */
-export function setModel(info) { model = info; }
+export function setModel(info) { current.model = info; }
 
 /** A new load: the token that tells its answers from those of an older load. */
-export function nextLoadToken() { return ++loadToken; }
+export function nextLoadToken() { return ++current.loadToken; }
 
 export function disposeRobot() {
   if (!robot) return;
@@ -50,7 +46,7 @@ export function disposeRobot() {
 export function buildRobot(info, visuals, poses) {
   disposeRobot();
   robot = new THREE.Group();
-  linkGroups = {};
+  current.linkGroups = {};
   bones = [];
   axisArrows = [];
 
@@ -58,9 +54,9 @@ export function buildRobot(info, visuals, poses) {
   const box = new THREE.Box3();
   for (const link of info.links) box.expandByPoint(new THREE.Vector3(...poses[link].position));
   const extent = box.getSize(new THREE.Vector3()).length();
-  modelSize = Math.max(extent, 0.2);
-  const triadLength = modelSize * TRIAD_FRACTION;
-  const rodRadius = modelSize * 0.006;
+  current.modelSize = Math.max(extent, 0.2);
+  const triadLength = current.modelSize * TRIAD_FRACTION;
+  const rodRadius = current.modelSize * 0.006;
 
   const triadGeometries = unitArrowGeometry(0, 0.25, 0.05, 0.12);
   const triadMaterials = {
@@ -79,7 +75,7 @@ export function buildRobot(info, visuals, poses) {
     triad.name = "triad";
     group.add(triad);
     for (const object of linkVisuals(visuals && visuals[link], solid)) group.add(object);
-    linkGroups[link] = group;
+    current.linkGroups[link] = group;
     robot.add(group);
   }
 
@@ -100,7 +96,7 @@ export function buildRobot(info, visuals, poses) {
 
   // Joint axes: arrows through the child link origin along the joint axis (the axis is given
   // in the joint frame, which is the child link frame), centred on the joint.
-  const arrowLength = modelSize * AXIS_ARROW_FRACTION;
+  const arrowLength = current.modelSize * AXIS_ARROW_FRACTION;
   const arrowGeometries = unitArrowGeometry(-0.5, 0.22, 0.03, 0.08);
   const arrowMaterials = {
     revolute: new THREE.MeshStandardMaterial({ color: COLORS.revolute }),
@@ -123,7 +119,7 @@ export function buildRobot(info, visuals, poses) {
 
   // Ground grid (1 2 5 steps) and world axes scaled to the model.
   if (grid) { scene.remove(grid); grid.geometry.dispose(); grid.material.dispose(); }
-  const step = niceStep(modelSize / 5);
+  const step = niceStep(current.modelSize / 5);
   grid = new THREE.GridHelper(step * 20, 20, 0x9aa1b1, 0xd3d7df);
   grid.rotateX(Math.PI / 2);             // GridHelper lies in xz; the ground is xy
   scene.add(grid);
@@ -132,24 +128,18 @@ export function buildRobot(info, visuals, poses) {
 }
 
 /** The bounding sphere of the model at its current pose: every link origin and every drawn
- * primitive visual (and the workspace cloud and the IK ghosts while they are shown). */
+ * primitive visual, and what `current.framed` adds (the workspace cloud and the IK ghosts while
+ * they are shown). */
 export function modelSphere() {
   const box = new THREE.Box3();
-  if (lastPoses) for (const pose of Object.values(lastPoses)) box.expandByPoint(new THREE.Vector3(...pose.position));
+  if (current.lastPoses) for (const pose of Object.values(current.lastPoses)) box.expandByPoint(new THREE.Vector3(...pose.position));
   if (robot) {
     robot.updateMatrixWorld(true);
-    for (const group of Object.values(linkGroups)) {
+    for (const group of Object.values(current.linkGroups)) {
       for (const child of group.children) if (child.isMesh || child.userData.visual) box.expandByObject(child);
     }
   }
-  if (cloud && cloud.visible) {
-    cloud.geometry.computeBoundingBox();
-    box.union(cloud.geometry.boundingBox);
-  }
-  if (ghostRoot.children.length) {         // the IK target's every-solution ghosts (ghosts.js)
-    ghostRoot.updateMatrixWorld(true);
-    box.expandByObject(ghostRoot);
-  }
+  for (const frame of current.framed) frame(box);
   const sphere = new THREE.Sphere();
   if (box.isEmpty()) return new THREE.Sphere(new THREE.Vector3(), 0.5);
   box.getBoundingSphere(sphere);
@@ -187,8 +177,8 @@ export function niceStep(x) {
 }
 
 export function applyPoses(poses) {
-  lastPoses = poses;
-  for (const [link, group] of Object.entries(linkGroups)) {
+  current.lastPoses = poses;
+  for (const [link, group] of Object.entries(current.linkGroups)) {
     const pose = poses[link];
     if (!pose) continue;
     group.matrix.copy(matrixFromRows(pose.matrix));
@@ -215,9 +205,9 @@ export function applyPoses(poses) {
 }
 
 export function highlightSelected() {
-  for (const [link, group] of Object.entries(linkGroups)) {
+  for (const [link, group] of Object.entries(current.linkGroups)) {
     const triad = group.getObjectByName("triad");
-    if (triad) triad.scale.setScalar(modelSize * TRIAD_FRACTION * (link === state.selectedLink ? SELECTED_TRIAD_SCALE : 1));
+    if (triad) triad.scale.setScalar(current.modelSize * TRIAD_FRACTION * (link === state.selectedLink ? SELECTED_TRIAD_SCALE : 1));
   }
 }
 
@@ -231,14 +221,14 @@ function bonesByLink() {
 
 /** Ask whether configuration `q` (the one drawn) is in self-collision; its colliding links turn red. */
 export function checkCollision(q) {
-  if (!model || !robot) return;
+  if (!current.model || !robot) return;
   const built = robot;
-  requestCollision(model.id, q, (links) => colourLinks(linkGroups, links, bonesByLink()), () => robot === built);
+  requestCollision(current.model.id, q, (links) => colourLinks(current.linkGroups, links, bonesByLink()), () => robot === built);
 }
 
 // Test hook: the colours (hex numbers) a link's visuals (or its rod) are drawn in now.
 window.viewerDebug = Object.assign(window.viewerDebug || {}, {
-  linkColours: (link) => linkColours(linkGroups, link, bonesByLink()),
+  linkColours: (link) => linkColours(current.linkGroups, link, bonesByLink()),
 });
 
 // ---------------------------------------------------------------------------- sliders
@@ -254,7 +244,7 @@ export function fmt(x, digits = DIGITS) {
 export function buildSliders(info, q = null) {
   const container = $("sliders");
   container.replaceChildren();
-  sliders = [];
+  current.sliders = [];
   const byName = Object.fromEntries(info.joints.map((j) => [j.name, j]));
   if (info.joint_names.length === 0) {
     const p = document.createElement("p");
@@ -291,7 +281,7 @@ export function buildSliders(info, q = null) {
       requestFk();
     });
     showSliderValue(slider);
-    sliders.push(slider);
+    current.sliders.push(slider);
     container.appendChild(div);
   });
 }
@@ -307,7 +297,7 @@ export function showSliderValue(slider) {
  * which the label shows and FK, IK seeds and the test hook use). An IK answer leaves the IK
  * target where it is; any other change moves the target onto the link. */
 export function setAll(values, { fromIk = false } = {}) {
-  sliders.forEach((s, i) => {
+  current.sliders.forEach((s, i) => {
     s.value = values[i];
     s.input.value = String(values[i]);
     showSliderValue(s);
@@ -317,12 +307,12 @@ export function setAll(values, { fromIk = false } = {}) {
 }
 
 export function currentQ() {
-  return sliders.map((s) => s.value);
+  return current.sliders.map((s) => s.value);
 }
 
 // ---------------------------------------------------------------------------- FK / Jacobian
 export function requestFk() {
-  if (!model) return;
+  if (!current.model) return;
   if (fkInFlight) { fkPending = true; return; }
   runFk();
 }
@@ -330,44 +320,44 @@ export function requestFk() {
 export async function runFk() {
   fkInFlight = true;
   fkPending = false;
-  const id = model.id;
-  const token = loadToken;
+  const id = current.model.id;
+  const token = current.loadToken;
   const q = currentQ();
   state.fkRequests += 1;
   try {
     const answer = await api(`/models/${encodeURIComponent(id)}/fk`, { method: "POST", body: { q, links: FK_LINKS_ALL } });
-    if (token !== loadToken) return;
+    if (token !== current.loadToken) return;
     state.fkResponses += 1;
     state.lastQ = q;
     applyPoses(answer.poses);
     checkCollision(q);
     if (snapTargetAfterFk && !fkPending) {
       snapTargetAfterFk = false;
-      if (ik.enabled && !gizmo.dragging && !ikBusy()) placeTargetAtLink();
+      emit("link-moved");                // by hand, not by IK: the IK target follows (ik.js)
     }
     showOutOfLimits(answer.out_of_limits || []);
-    requestVelocity();
+    emit("fk-drawn", q);                 // the link velocities follow (velocity.js)
     await showSelectedPose(q);
   } catch (err) {
     showError(err);
   } finally {
     fkInFlight = false;
-    if (fkPending && token === loadToken) runFk();
+    if (fkPending && token === current.loadToken) runFk();
   }
 }
 
 export function showOutOfLimits(names) {
   const el = $("out-of-limits");
   const list = Array.isArray(names[0]) ? names[0] : names;
-  sliders.forEach((s) => s.div.classList.toggle("out", list.includes(s.name)));
+  current.sliders.forEach((s) => s.div.classList.toggle("out", list.includes(s.name)));
   el.hidden = list.length === 0;
   el.textContent = list.length ? `Outside limits: ${list.join(", ")}` : "";
 }
 
 export async function showSelectedPose(q) {
   const link = state.selectedLink;
-  if (!link || !lastPoses || !lastPoses[link]) return;
-  const pose = lastPoses[link];
+  if (!link || !current.lastPoses || !current.lastPoses[link]) return;
+  const pose = current.lastPoses[link];
   const quat = pose.quaternion;
   $("pose-link").textContent = link;
   $("pose-position").textContent = pose.position.map((v) => fmt(v)).join(", ");
@@ -375,14 +365,14 @@ export async function showSelectedPose(q) {
   $("pose-rpy").textContent = pose.rpy.map((v) => fmt(v)).join(", ");
   $("pose-rpy-deg").textContent = pose.rpy.map((v) => fmt(v * 180 / Math.PI, 2)).join(", ");
   state.lastPose = { link, position: pose.position, quaternion: quat, rpy: pose.rpy };
-  const id = model.id;
+  const id = current.model.id;
   const seq = ++jacobianSeq;             // only the latest answer is shown
   state.jacobianRequests += 1;
   try {
     const jac = await api(`/models/${encodeURIComponent(id)}/jacobian`, {
       method: "POST", body: { q: q || currentQ(), link, reference: JACOBIAN_REFERENCE },
     });
-    if (seq !== jacobianSeq || !model || model.id !== id || state.selectedLink !== link) return;
+    if (seq !== jacobianSeq || !current.model || current.model.id !== id || state.selectedLink !== link) return;
     $("pose-manipulability").textContent = fmt(jac.manipulability, 6);
     // JSON has no infinity: a singular Jacobian's condition number may come as null or a string
     const cond = jac.condition_number;
@@ -395,3 +385,5 @@ export async function showSelectedPose(q) {
     showError(err);
   }
 }
+
+$("btn-fit").addEventListener("click", () => { if (current.model) fitCamera(); });

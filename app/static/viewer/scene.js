@@ -29,7 +29,7 @@ sun.position.set(2, -3, 5);
 scene.add(sun);
 
 
-export let renderQueued = false;
+let renderQueued = false;
 export function requestRender() {
   if (renderQueued) return;
   renderQueued = true;

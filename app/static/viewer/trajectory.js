@@ -13,7 +13,8 @@
 
 import { api, showError } from "./api.js";
 import { $, state } from "./config.js";
-import { applyPoses, loadToken, model, setAll, showSliderValue, sliders } from "./robot.js";
+import { applyPoses, setAll, showSliderValue } from "./robot.js";
+import { current } from "./state.js";
 
 const TRAJ_RATE = 50;   // samples per second asked of the service (the animation's frame times)
 const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
@@ -105,11 +106,11 @@ function showSample(k, { sync = false } = {}) {
   traj.sample = Math.min(Math.max(k, 0), a.t.length - 1);
   const q = a.q[traj.sample];
   const byName = Object.fromEntries(a.joint_names.map((name, j) => [name, q[j]]));
-  const values = sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
+  const values = current.sliders.map((s) => (Number.isFinite(byName[s.name]) ? byName[s.name] : s.value));
   if (sync) {
     setAll(values, { fromIk: true });
   } else {
-    sliders.forEach((s, j) => { s.value = values[j]; s.input.value = String(values[j]); showSliderValue(s); });
+    current.sliders.forEach((s, j) => { s.value = values[j]; s.input.value = String(values[j]); showSliderValue(s); });
     state.lastQ = values;
     applyPoses(traj.poses[traj.sample]);
   }
@@ -140,7 +141,7 @@ function tick(now) {
 export function playTrajectory() {
   const a = traj.answer;
   if (!a) return;
-  if (!model || model.id !== traj.modelId) { setStatus("The model changed: time the path again.", "warn"); return; }
+  if (!current.model || current.model.id !== traj.modelId) { setStatus("The model changed: time the path again.", "warn"); return; }
   if (traj.playing) { stop(); showSample(traj.sample, { sync: true }); return; }
   const from = traj.sample >= a.t.length - 1 ? 0 : traj.sample;
   traj.playing = true;
@@ -153,25 +154,25 @@ export function playTrajectory() {
 /** Time the planned path (state.path.q) under the limits typed in. */
 export async function timePath() {
   const path = state.path;
-  if (!model || !path || !path.q || path.q.length < 2) {
+  if (!current.model || !path || !path.q || path.q.length < 2) {
     setStatus("Plan a Cartesian path first: its joint values are the waypoints.", "warn");
     return;
   }
   const velocity = Number($("traj-velocity").value);
   const acceleration = Number($("traj-acceleration").value);
   stop();
-  const token = loadToken;
+  const token = current.loadToken;
   const mine = ++traj.token;
-  const id = encodeURIComponent(model.id);
+  const id = encodeURIComponent(current.model.id);
   setStatus("Timing…");
   state.trajectoryRequests += 1;
   try {
     const answer = await api(`/models/${id}/trajectory`, { method: "POST", body: {
       waypoints: path.q, limits: { velocity, acceleration }, rate: TRAJ_RATE } });
     const poses = (await api(`/models/${id}/fk`, { method: "POST", body: { q: answer.q, links: "all" } })).poses;
-    if (token !== loadToken || mine !== traj.token) return;
+    if (token !== current.loadToken || mine !== traj.token) return;
     traj.answer = answer;
-    traj.modelId = model.id;
+    traj.modelId = current.model.id;
     traj.poses = poses;
     traj.waypoints = path.q.length;
     traj.sample = 0;
@@ -181,7 +182,7 @@ export async function timePath() {
       + `${(100 * peakRatio(answer.qdd, answer.limits.acceleration)).toFixed(0)} % of the acceleration limit).`, "ok");
     showSample(0);
   } catch (err) {
-    if (token !== loadToken || mine !== traj.token) return;
+    if (token !== current.loadToken || mine !== traj.token) return;
     setStatus("The trajectory request failed (see the message above).", "warn");
     showError(err);
   } finally {
@@ -192,8 +193,8 @@ export async function timePath() {
 $("traj-time").addEventListener("click", () => timePath());
 $("traj-play").addEventListener("click", () => playTrajectory());
 
-// Test hook entries (window.viewerTest is made by ik.js, evaluated before this module).
-Object.assign(window.viewerTest, {
+// Test hook entries (merged into window.viewerTest, made by test-hook.js or here first).
+window.viewerTest = Object.assign(window.viewerTest || {}, {
   async timePath() { await timePath(); return state.trajectory; },
   playTrajectory: () => playTrajectory(),
   trajectoryChartInk() {

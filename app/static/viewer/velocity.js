@@ -4,18 +4,28 @@
 import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, VELOCITY_ARROW_FRACTION, state } from "./config.js";
-import { currentQ, fmt, lastPoses, loadToken, model, modelSize } from "./robot.js";
+import { currentQ, fmt } from "./robot.js";
 import { Z_AXIS, requestRender, scene, unitArrowGeometry } from "./scene.js";
+import { current, on } from "./state.js";
 
 // ---------------------------------------------------------------------------- link velocities
 // With joint velocities set, every FK answer is followed by POST /models/{id}/velocity (links
 // "all") and an arrow on each moving link shows the velocity of its origin (world axes).
-export let qdotInputs = [];
-export let velocityArrows = {};  // link -> THREE.Group (unit arrow along +z)
-export let velocityGroup = null;
-export let velocitySeq = 0;
-export let velocityInFlight = false;
-export let velocityPending = false;
+let qdotInputs = [];
+let velocityArrows = {};  // link -> THREE.Group (unit arrow along +z)
+let velocityGroup = null;
+let velocitySeq = 0;
+let velocityInFlight = false;
+let velocityPending = false;
+
+/** A velocity request in flight or one waiting for it. */
+export function velocityBusy() { return velocityInFlight || velocityPending; }
+
+/** Set the joint velocity inputs to `values` and ask for the arrows. */
+export function setQdot(values) {
+  qdotInputs.forEach((input, i) => { input.value = String(values[i]); });
+  requestVelocity();
+}
 
 export function buildQdotInputs(info) {
   const container = $("qdot-inputs");
@@ -54,7 +64,7 @@ export function clearVelocityArrows() {
 }
 
 export function requestVelocity() {
-  if (!model || !qdotInputs.length) return;
+  if (!current.model || !qdotInputs.length) return;
   if (currentQdot().every((v) => v === 0)) {
     if (velocityGroup) clearVelocityArrows();
     $("qd-status").textContent = "";
@@ -67,8 +77,8 @@ export function requestVelocity() {
 export async function runVelocity() {
   velocityInFlight = true;
   velocityPending = false;
-  const id = model.id;
-  const token = loadToken;
+  const id = current.model.id;
+  const token = current.loadToken;
   const seq = ++velocitySeq;
   const q = currentQ();
   const qdot = currentQdot();
@@ -76,14 +86,14 @@ export async function runVelocity() {
   try {
     const answer = await api(`/models/${encodeURIComponent(id)}/velocity`, { method: "POST", body: { q, qdot, links: "all" } });
     state.velocityResponses += 1;
-    if (token !== loadToken || seq !== velocitySeq || !lastPoses) return;
+    if (token !== current.loadToken || seq !== velocitySeq || !current.lastPoses) return;
     drawVelocityArrows(answer.velocities, q, qdot);
   } catch (err) {
     state.velocityResponses += 1;
     showError(err);
   } finally {
     velocityInFlight = false;
-    if (velocityPending && token === loadToken) runVelocity();
+    if (velocityPending && token === current.loadToken) runVelocity();
   }
 }
 
@@ -99,7 +109,7 @@ export function drawVelocityArrows(velocities, q, qdot) {
     linear[link] = v.linear;
     vmax = Math.max(vmax, Math.hypot(...v.linear));
   }
-  const scale = vmax > 0 ? (modelSize * VELOCITY_ARROW_FRACTION) / vmax : 0;
+  const scale = vmax > 0 ? (current.modelSize * VELOCITY_ARROW_FRACTION) / vmax : 0;
   let drawn = 0;
   for (const [link, v] of Object.entries(linear)) {
     const speed = Math.hypot(...v);
@@ -112,8 +122,8 @@ export function drawVelocityArrows(velocities, q, qdot) {
       velocityArrows[link] = arrow;
       velocityGroup.add(arrow);
     }
-    const pose = lastPoses[link];
-    arrow.visible = speed * scale > modelSize * 1e-3 && Boolean(pose);
+    const pose = current.lastPoses[link];
+    arrow.visible = speed * scale > current.modelSize * 1e-3 && Boolean(pose);
     if (!arrow.visible) continue;
     drawn += 1;
     arrow.position.set(...pose.position);
@@ -123,11 +133,12 @@ export function drawVelocityArrows(velocities, q, qdot) {
   state.velocityArrows = drawn;
   state.lastVelocity = { q, qdot, linear, scale };
   $("qd-status").textContent = vmax > 0
-    ? `Fastest link origin: ${fmt(vmax, 3)} m/s (arrow ${fmt(modelSize * VELOCITY_ARROW_FRACTION, 3)} m).`
+    ? `Fastest link origin: ${fmt(vmax, 3)} m/s (arrow ${fmt(current.modelSize * VELOCITY_ARROW_FRACTION, 3)} m).`
     : "No link moves.";
   requestRender();
 }
 
+on("fk-drawn", () => requestVelocity());   // robot.js: a new configuration drawn
 $("qd-zero").addEventListener("click", () => { for (const input of qdotInputs) input.value = "0"; requestVelocity(); });
 $("qd-random").addEventListener("click", () => {
   for (const input of qdotInputs) input.value = (Math.random() * 2 - 1).toFixed(2);

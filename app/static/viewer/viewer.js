@@ -13,8 +13,9 @@
 //
 // The viewer is ES modules (no build step, relative imports): config.js, api.js, scene.js,
 // robot.js, meshes.js (visuals and meshes), self-collision.js, ik.js (with ghosts.js, every IK
-// solution, and path.js, Cartesian paths), workspace.js, velocity.js, closed-forms.js, dh-editor.js,
-// loader.js, calibration.js, trajectory.js (a planned path timed and played in time); this one, the
+// solution, self-motion.js, a 7-joint arm's self-motion, and path.js, Cartesian paths), workspace.js, velocity.js, closed-forms.js, dh-editor.js,
+// loader.js, calibration.js, trajectory.js (a planned path timed and played in time), state.js (the
+// state they share: the model shown, and events), test-hook.js (window.viewerTest); this one, the
 // entry point, wires the tabs and starts.
 
 import { ApiError, showError } from "./api.js";
@@ -23,6 +24,7 @@ import { $, ROOT } from "./config.js";
 import { DH_EXAMPLE, addDhRow } from "./dh-editor.js";
 import { loadCatalogue, loadModel } from "./loader.js";
 import { resize } from "./scene.js";
+import "./test-hook.js";
 import "./trajectory.js";
 
 // ---------------------------------------------------------------------------- tabs

@@ -4,14 +4,20 @@
 import * as THREE from "three";
 import { api, showError } from "./api.js";
 import { $, CLOUD_COLOR_QUANTILE, CLOUD_POINT_FRACTION, state } from "./config.js";
-import { fitCamera, fmt, model, modelSize } from "./robot.js";
+import { fitCamera, fmt } from "./robot.js";
 import { requestRender, scene } from "./scene.js";
+import { current } from "./state.js";
 
 // ---------------------------------------------------------------------------- workspace cloud
 // POST /models/{id}/workspace with Accept: application/x-npy answers an (N, 4) float64 array of
 // rows x, y, z, manipulability (world frame): drawn as points coloured by manipulability / max.
-export let cloud = null;                         // THREE.Points: the sampled workspace of the selected link
-export let wsSeq = 0;
+let cloud = null;                         // THREE.Points: the sampled workspace of the selected link
+let wsSeq = 0;
+current.framed.push((box) => {           // a camera fit frames the cloud shown too
+  if (!cloud || !cloud.visible) return;
+  cloud.geometry.computeBoundingBox();
+  box.union(cloud.geometry.boundingBox);
+});
 
 /** The float64 array of a NumPy .npy file (format 1.x/2.x, little-endian '<f8', C order) and its shape. */
 export function parseNpy(buffer) {
@@ -58,8 +64,8 @@ export function setWsStatus(text, kind = "") {
 }
 
 export async function sampleWorkspace() {
-  if (!model) return;
-  const id = model.id;
+  if (!current.model) return;
+  const id = current.model.id;
   const link = state.selectedLink;
   const samples = Math.round(Number($("ws-samples").value) || 20000);
   const seed = Math.round(Number($("ws-seed").value) || 0);
@@ -73,7 +79,7 @@ export async function sampleWorkspace() {
       api(`/models/${encodeURIComponent(id)}/workspace`, { method: "POST", body }),
     ]);
     state.wsResponses += 1;
-    if (seq !== wsSeq || !model || model.id !== id) return;
+    if (seq !== wsSeq || !current.model || current.model.id !== id) return;
     const { data, shape } = parseNpy(buffer);
     const n = shape[0];
     const positions = new Float32Array(3 * n);
@@ -92,7 +98,7 @@ export async function sampleWorkspace() {
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute("position", new THREE.BufferAttribute(positions, 3));
     geometry.setAttribute("color", new THREE.BufferAttribute(colors, 3));
-    const material = new THREE.PointsMaterial({ size: modelSize * CLOUD_POINT_FRACTION, vertexColors: true,
+    const material = new THREE.PointsMaterial({ size: current.modelSize * CLOUD_POINT_FRACTION, vertexColors: true,
                                                  transparent: true, opacity: 0.7, depthWrite: false });
     if (cloud) { scene.remove(cloud); cloud.geometry.dispose(); cloud.material.dispose(); }
     cloud = new THREE.Points(geometry, material);
