@@ -32,6 +32,7 @@ q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.2])
 T = fk(ur5, q, links=["tool0"]).poses[0, 0]
 T2 = T.copy(); T2[2, 3] += 0.05
 P = fk(panda, [0.1] * panda.dof, links=["panda_hand"]).poses[0, 0]
+P2 = P.copy(); P2[1, 3] += 0.02
 operations = {
     "fk": lambda: fk(ur5, q, links=["tool0"]),
     "fk batch": lambda: fk(ur5, np.tile(q, (300, 1))),
@@ -53,6 +54,8 @@ operations = {
     "workspace": lambda: workspace(ur5, "tool0", samples=500),
     "ik self-motion": lambda: ik(panda, P, link="panda_hand", solutions="all",
                                  redundancy={"values": [0.1, 0.4], "intervals": True, "select": "nearest"}),
+    "ik path along the self-motion": lambda: ik_path(panda, np.stack([P, P2]), seed=[0.1] * panda.dof,
+                                                     link="panda_hand", redundancy={"select": "nearest"}),
     "trajectory": lambda: trajectory(ur5, np.stack([q, q + 0.3, q - 0.2]), TrajectoryLimits(acceleration=2.0)),
     "trajectory, jerk-limited, tool speed": lambda: trajectory(
         ur5, np.stack([q, q + 0.3]), TrajectoryLimits(acceleration=2.0, jerk=30.0, tool_speed=ToolSpeed("tool0", 0.3))),
