@@ -62,6 +62,7 @@ class IKRequest(QueryRequest, CollisionPairs):  # allow / forbid: the pairs avoi
                                    "success holds only for a free one. A model without collision geometry: 422")
     redundancy: Union[RedundancyRequest, None] = Field(
         default=None, description="a 7-joint chain with solutions all: its self-motion (app/schemas/redundancy.py); "
+                                  "with solutions one and select alone: the one best point of the self-motion; "
                                   "with avoid_collisions, values leave the colliding solutions out and select "
                                   "answers the best free point (intervals: 422)")
 

@@ -13,7 +13,7 @@ from ..errors import KinematicsError
 from .ik_all import IKAllAnswer, ik_all
 from .ik_options import IKOptions
 from .ik_select import IKProblem, Selection, selection
-from .ik_redundant import ik_redundant
+from .ik_redundant import BestOverSelfMotion, ik_redundant
 from .query import Query
 
 
@@ -70,16 +70,23 @@ def ik(query: Query | RobotModel, target: Any, *, seed: Any = None, options: IKO
     :data:`~kinematics.usecases.ik_select.COLLISION_ROUNDS` rounds of fresh seeds within the limits, each with its restarts --
     and ``success`` holds only for a free answer (``collision_free`` (N,) says which are).
 
-    ``redundancy`` (with ``solutions="all"``, a 7-joint chain): its self-motion,
+    ``redundancy`` (a 7-joint chain): with ``solutions="all"`` its self-motion,
     :func:`kinematics.usecases.ik_redundant.ik_redundant` (with ``avoid_collisions``: the slices
-    without their colliding solutions, or the best free point).
+    without their colliding solutions, or the best free point); with ``solutions="one"`` and its
+    ``select``, the one best solution over the whole self-motion
+    (:class:`~kinematics.usecases.ik_redundant.BestOverSelfMotion`).
     """
     options, rest = IKOptions.split(options, keywords)
     wanted = options.solutions
     if wanted.redundancy is not None:  # a 7-joint chain's self-motion (kinematics.usecases.ik_redundant)
-        if wanted.solutions != "all":
-            raise KinematicsError("redundancy: give it with solutions 'all'")
-        return ik_redundant(query, target, seed=seed, options=options, **rest)
+        if wanted.solutions == "all":
+            return ik_redundant(query, target, seed=seed, options=options, **rest)
+        spec = wanted.redundancy
+        if spec.select is None or spec.values is not None or spec.intervals:
+            raise KinematicsError("redundancy: with solutions 'one' give select (the best point of the whole "
+                                  "self-motion) and neither values nor intervals; or ask solutions 'all'")
+        if select is None:
+            select = BestOverSelfMotion(spec.select, spec.parameter)
     if wanted.solutions == "all":
         return ik_all(query, target, seed=seed, options=options, **rest)
     strategy = selection(options) if select is None else select

@@ -17,12 +17,15 @@ the in-limit intervals of the parameter, the best point (:mod:`kinematics.algori
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ..algorithms import ik as _ik
+from ..algorithms.ik import IKSolution
+from ..algorithms.ik_all import NEAR_STEPS
 from ..algorithms import ik_redundant as red
 from ..algorithms import ik_self_motion as sm
 from ..algorithms.ik_self_motion_free import best_free
@@ -30,6 +33,7 @@ from ..errors import BudgetError, KinematicsError
 from ..spatial.transforms import inverse_transform
 from .ik_all import IKAllAnswer
 from .ik_options import IKOptions
+from .ik_select import IKProblem, first_of_each
 from .query import Query
 
 
@@ -120,6 +124,41 @@ def ik_redundant(query: Query | Any, target: Any, *, seed: Any = None, options: 
                              mode=settings.mode, is_batch=is_batch, targets=T, family=family, method=method,
                              locked=dict(motion.locked), colliding=colliding, parameter=param,
                              parameter_name=motion.joint, intervals=intervals, select=spec.select)
+
+
+@dataclass(frozen=True)
+class BestOverSelfMotion:
+    """A :class:`~kinematics.usecases.ik_select.Selection`: one answer per target, the best solution
+    over a redundant (7-joint) chain's whole self-motion by ``objective`` (``nearest`` the seed,
+    ``margin`` to the joint limits, ``manipulability``; the ``parameter`` joint, None: the chain's
+    default) -- :func:`ik_redundant` with ``select`` (with collision avoidance, the best free point);
+    where no in-limit point exists, the numerical answer, without success. What
+    ``ik(..., solutions="one", redundancy={"select": ...})`` takes.
+
+    >>> from kinematics.io import default_catalogue
+    >>> from kinematics.usecases.fk import fk
+    >>> from kinematics.usecases.ik import ik
+    >>> panda = default_catalogue().get("panda")
+    >>> T = fk(panda, [0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.7, 0.0], links=["panda_link8"]).poses[0, 0]
+    >>> one = ik(panda, T, link="panda_link8", select=BestOverSelfMotion("margin"))
+    >>> bool(one.solution.success[0]), bool(one.solution.position_error[0] < 1e-9)
+    (True, True)
+    """
+
+    objective: str = "nearest"
+    parameter: str | None = None
+    #: not a full set of a 6-joint chain (IKProblem.of checks that set's size): the self-motion's own bounds
+    full_set: ClassVar[bool] = False
+
+    def work(self, model, link: str, options: IKOptions, family=None) -> tuple[int, int]:
+        return 15, NEAR_STEPS  # a closed form's candidates polished, as a full set's (per slice looked at)
+
+    def select(self, problem: IKProblem) -> tuple[IKSolution, np.ndarray | None]:
+        spec = red.Redundancy(parameter=self.parameter, select=self.objective)
+        options = dataclasses.replace(problem.options, solutions=dataclasses.replace(
+            problem.options.solutions, solutions="all", redundancy=spec))
+        best = ik_redundant(problem.query, problem.T, seed=problem.seeds, options=options)
+        return first_of_each(problem, best, problem.start)
 
 
 def _leave_out(arrays, free):

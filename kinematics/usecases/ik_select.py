@@ -18,9 +18,10 @@ free). Three are defined here:
   without success, where the set is empty).
 
 :func:`selection` chooses among them from the options (``method="analytic"`` or ``locked`` joints:
-the set; avoidance: retry; else numerical); a caller may pass another. A new strategy (the best
-over a redundant arm's self-motion, say) is one class with :meth:`Selection.work` and
-:meth:`Selection.select`.
+the set; avoidance: retry; else numerical); a caller may pass another. A new strategy is one class
+with :meth:`Selection.work` and :meth:`Selection.select`:
+:class:`kinematics.usecases.ik_redundant.BestOverSelfMotion`, the best solution over a redundant
+arm's whole self-motion, is one.
 """
 
 from __future__ import annotations
@@ -306,25 +307,33 @@ class NearestOfSet:
     def select(self, problem: IKProblem) -> tuple[IKSolution, np.ndarray | None]:
         seeds = problem.start
         sol, _ = problem.solution_set(seeds)
-        N = len(problem.T)
-        K = sol.q.shape[1]
-        has = sol.count > 0
-        q = np.where(has[:, None], np.nan_to_num(sol.q[:, 0]) if K else 0.0, 0.0)
-        position = np.where(has, sol.position_error[:, 0] if K else 0.0, np.nan)
-        rotation = np.where(has, sol.rotation_error[:, 0] if K else 0.0, np.nan)
-        success = has.copy()
-        iterations = np.zeros(N, dtype=np.int64)
-        missing = np.flatnonzero(~has)
-        if missing.size:
-            fallback = problem.numerical(missing, seeds[missing % len(seeds)])
-            q[missing] = fallback.q
-            position[missing], rotation[missing] = fallback.position_error, fallback.rotation_error
-            iterations[missing] = fallback.iterations
-        free = None
-        if problem.free is not None:  # the nearest of the free solutions; where none is free, no success
-            free = problem.free(q)
-            success &= free
-        return IKSolution(q, success, position, rotation, iterations), free
+        return first_of_each(problem, sol, seeds)
+
+
+def first_of_each(problem: IKProblem, sol, seeds: np.ndarray) -> tuple[IKSolution, np.ndarray | None]:
+    """The first solution of each target's set ``sol`` (padded ``q``, ``count``, ``position_error``,
+    ``rotation_error``) as one answer per target; where the set is empty, the numerical answer from
+    ``seeds`` (1 or N, dof), without success (none is claimed). With collision avoidance, success
+    only for a free answer, and which are free."""
+    N = len(problem.T)
+    K = sol.q.shape[1]
+    has = sol.count > 0
+    q = np.where(has[:, None], np.nan_to_num(sol.q[:, 0]) if K else 0.0, 0.0)
+    position = np.where(has, sol.position_error[:, 0] if K else 0.0, np.nan)
+    rotation = np.where(has, sol.rotation_error[:, 0] if K else 0.0, np.nan)
+    success = has.copy()
+    iterations = np.zeros(N, dtype=np.int64)
+    missing = np.flatnonzero(~has)
+    if missing.size:
+        fallback = problem.numerical(missing, seeds[missing % len(seeds)])
+        q[missing] = fallback.q
+        position[missing], rotation[missing] = fallback.position_error, fallback.rotation_error
+        iterations[missing] = fallback.iterations
+    free = None
+    if problem.free is not None:  # the first of the free solutions; where none is free, no success
+        free = problem.free(q)
+        success &= free
+    return IKSolution(q, success, position, rotation, iterations), free
 
 
 def selection(options: IKOptions) -> Selection:
