@@ -269,6 +269,8 @@ def _chain_family(model: RobotModel, link: str, locked: dict | None,
     hit = cache.get(key)
     if hit is None:
         chain = reduce_chain(model, link, values, tool)
+        if not chain.joints:  # nothing to solve (the callers refuse it): no family, not kept
+            return chain, None, None
         hit = (chain, detect(chain), ik_polish.chain_arguments(chain.columns, chain.h, chain.r, chain.revolute,
                                                                chain.M))
         if len(cache) >= FAMILY_CACHE:
@@ -323,6 +325,15 @@ class _Problem:
         return np.isfinite(p) & (p + np.where(po, 0.0, r) > TIGHT) & (p < 10 * tp) & (po | (r < 10 * tr))
 
 
+def chain_family(model: RobotModel, link: str, locked: dict | None = None,
+                 tool: np.ndarray | None = None) -> tuple[Chain, Family]:
+    """``(reduce_chain(...), detect(...))`` of the chain to ``link`` with ``locked`` joints held (and
+    ``tool``), kept per model as :func:`all_solutions` keeps them (a request's checks and its solving
+    detect the family once)."""
+    chain, fam, _ = _chain_family(model, link, locked, tool)
+    return chain, fam
+
+
 def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np.ndarray | None = None,
                   tool: np.ndarray | None = None, locked: dict | None = None, limits: str = "respect",
                   method: str = "auto", seed: np.ndarray | None = None, mode: str = "pose",
@@ -337,6 +348,8 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     if method not in METHODS:
         raise KinematicsError(f"method: {method!r} is not one of {', '.join(METHODS)}")
     chain, fam, real = _chain_family(model, link, locked, tool)
+    if fam is None:
+        raise KinematicsError(f"the chain to {link} has no joint left to move (every one locked, or none on the way)")
     if fam.name == "redundant":
         raise KinematicsError(f"the chain to {link} has {chain.n} free joints: its solutions are infinitely many; "
                               f"lock {chain.n - 6} of them (locked)")

@@ -20,13 +20,12 @@ import numpy as np
 from ..algorithms import ik_all as _ik_all
 from ..algorithms import ik_path as _ik_path
 from ..algorithms import ik_path_redundant as _ik_path_redundant
-from ..algorithms.ik_families import detect, reduce_chain
 from ..algorithms.ik_redundant import SelfMotion, family_fields
 from ..errors import JointValueError, KinematicsError
 from ..io.poses import pose_list
 from ..model.robot import RobotModel
 from .ik_options import IKOptions
-from .ik_select import IKProblem, NearestOfSet, check_solutions, free_chain, most_solutions
+from .ik_select import IKProblem, NearestOfSet, chain_and_family, check_solutions, most_solutions
 from .query import Query
 
 
@@ -117,8 +116,7 @@ def ik_family(query: Query | RobotModel, *, locked: dict | None = None, **option
     family, closed_form, max_solutions, subproblems, reversed, near}``."""
     query = Query.of(query, **options)
     link = query.frame_link()
-    chain = free_chain(query.robot, link, locked, query.T_tool)
-    fam = detect(chain)
+    chain, fam = chain_and_family(query.robot, link, locked, query.T_tool)
     return {"link": link, "joints": list(chain.joints), "locked": dict(chain.locked), **fam.as_dict(),
             **family_fields(query.robot, link, locked, query.T_tool)}  # a 7-joint chain: its self-motion
 
@@ -150,15 +148,14 @@ def ik_path(query: Query | RobotModel, waypoints: Any, *, seed: Any = None, step
     if wanted.redundancy is not None:
         motion = _path_motion(query, link, wanted, settings)
         targets, _ = _ik_path.interpolate(W, position, rotation)
-        locked_chain = free_chain(query.robot, link, {**motion.locked, motion.joint: motion.v0})
-        most, slices = most_solutions(query.robot, locked_chain, detect(locked_chain), "ignore"), \
+        locked_chain, locked_family = chain_and_family(query.robot, link, {**motion.locked, motion.joint: motion.v0})
+        most, slices = most_solutions(query.robot, locked_chain, locked_family, "ignore"), \
             _ik_path_redundant.SLICES_PER_TARGET
         query.budget.check("max_ik_solutions", len(targets) * slices * most, field="step",
                            what=f"IK solutions ({len(targets)} targets x about {slices} slices of the self-motion "
                                 f"x up to {most} each)")
     else:
-        chain = free_chain(query.robot, link, wanted.locked_map)
-        family = detect(chain)
+        chain, family = chain_and_family(query.robot, link, wanted.locked_map)
         if family.closed_form:  # the path lists every in-limit solution of each of its targets first
             targets, _ = _ik_path.interpolate(W, position, rotation)
             check_solutions(query, len(targets), chain, family)

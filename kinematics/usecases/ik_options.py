@@ -173,7 +173,7 @@ class IKOptions:
         ``restarts``, ``random_seed``, ``solutions``, ``method``, ``locked``, ``limits``,
         ``redundancy``, ``avoid_collisions``, ``collision_samples`` and ``cache_dir`` become fields of the objects;
         the rest (the query's fields) is returned as is."""
-        options = options or cls()
+        options = options or DEFAULT_OPTIONS
         parts: dict[str, dict[str, Any]] = {"settings": {}, "solutions": {}, "collisions": {}}
         rest: dict[str, Any] = {}
         avoid = None
@@ -195,3 +195,7 @@ class IKOptions:
         return cls(dataclasses.replace(options.settings, **parts["settings"]) if parts["settings"] else options.settings,
                    dataclasses.replace(options.solutions, **parts["solutions"]) if parts["solutions"]
                    else options.solutions, collisions), rest
+
+
+#: the options of a call that gives none (frozen: one object serves every such call)
+DEFAULT_OPTIONS = IKOptions()

@@ -34,7 +34,6 @@ import numpy as np
 from ..algorithms import ik_all as _ik_all
 from ..algorithms.ik import IKSolution, inverse_kinematics, middle_of_limits, pose_errors
 from ..algorithms.ik_collision import free_solutions
-from ..algorithms.ik_families import detect, reduce_chain
 from ..errors import KinematicsError
 from ..model.robot import RobotModel
 from ..spatial.transforms import inverse_transform
@@ -61,16 +60,18 @@ class Selection(Protocol):
         """One answer per target, and with collision avoidance ``collision_free`` (N,) (else None)."""
 
 
-def free_chain(model: RobotModel, link: str, locked: dict | None, T_tool=None):
-    """The chain to ``link`` with ``locked`` joints folded in (:func:`reduce_chain`); one with no joint
-    left to move (all locked, or none on the way) is a :class:`KinematicsError`: there is nothing to
-    solve (every IK operation, the family included, refuses it alike)."""
-    chain = reduce_chain(model, link, locked, T_tool)
+def chain_and_family(model: RobotModel, link: str, locked: dict | None, T_tool=None):
+    """The chain to ``link`` with ``locked`` joints folded in and its family
+    (:func:`~kinematics.algorithms.ik_all.chain_family`, kept per model: a request's checks and its
+    solving detect the family once). A chain with no joint left to move (all locked, or none on the
+    way) is a :class:`KinematicsError`: there is nothing to solve (every IK operation, the family
+    included, refuses it alike)."""
+    chain, family = _ik_all.chain_family(model, link, locked, T_tool)
     if not chain.joints:
         why = "every joint of the chain to {} is locked" if chain.locked else "the chain to {} has no joint"
         raise KinematicsError(why.format(link) + ": nothing left to solve; its pose is the forward kinematics "
                               "of the configuration (fk)")
-    return chain
+    return chain, family
 
 
 #: the most solutions a chain without a known count can have (the general 6R: 16)
@@ -103,7 +104,7 @@ def set_work(model: RobotModel, link: str, options: IKOptions, family=None) -> t
     seeds x its steps (``family``: the chain's, detected here when not given)."""
     wanted = options.solutions
     if family is None:
-        family = detect(free_chain(model, link, wanted.locked_map))
+        family = chain_and_family(model, link, wanted.locked_map)[1]
     if family.closed_form and wanted.method != "numeric":
         return 15, _ik_all.NEAR_STEPS
     return _ik_all.SEARCH_SEEDS - 1, _ik_all.SEARCH_STEPS
@@ -141,8 +142,7 @@ class IKProblem:
         link = query.frame_link()
         free = options.collisions.filter(model, query.collision_pairs) if options.collisions is not None else None
         if strategy.full_set:  # the largest answer the set could be, before the work (the family detected once)
-            chain = free_chain(model, link, options.solutions.locked_map)
-            family = detect(chain)
+            chain, family = chain_and_family(model, link, options.solutions.locked_map)
             check_solutions(query, N, chain, family, options.solutions.solution_limits)
             budget.check_ik_work(N, *strategy.work(model, link, options, family=family))
         else:
@@ -203,7 +203,7 @@ def _off_chain_at_middle(model: RobotModel, link: str, locked, T_tool, sol):
 
     from ..tolerances import LIMIT_TOLERANCE
 
-    chain = reduce_chain(model, link, locked, T_tool)
+    chain = _ik_all.chain_family(model, link, locked, T_tool)[0]
     held = set(chain.columns.tolist()) | {model.q_index[name] for name in chain.locked}
     off = np.array([c for c in range(model.dof) if c not in held], dtype=np.intp)
     if off.size == 0:
@@ -256,7 +256,7 @@ class RetryUntilFree(Numerical):
         full_set = False
         if todo.size and not model.multi_dof:
             try:
-                if detect(reduce_chain(model, link, None, problem.T_tool)).closed_form:
+                if _ik_all.chain_family(model, link, None, problem.T_tool)[1].closed_form:
                     sol = _ik_all.all_solutions(model, link, T[todo], base=None if B_all is None else B_all[todo],
                                                 tool=problem.T_tool, seed=start[todo], **settings.tolerances())
                     sol, _ = free_solutions(sol, free_of)

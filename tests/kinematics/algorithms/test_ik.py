@@ -236,3 +236,32 @@ def test_bad_options_are_refused(catalogue):
         api.ik(model, [target] * 10, max_iterations=100, restarts=9, budget=api.Budget(max_ik_work=9_999))
     assert exc.value.budget == "ik-work" and exc.value.limit == 9_999
     api.ik(model, [target] * 10, max_iterations=100, restarts=9, budget=api.Budget(max_ik_work=10_000))  # at the bound
+
+
+def test_one_pose_and_a_batch_of_one_are_checked_alike():
+    """A single (4, 4) target is checked in Python (io.poses._one_pose_problem), a batch as arrays: the
+    same verdicts and words on good and bad poses."""
+    from kinematics.errors import PoseError
+    from kinematics.io.poses import pose_list
+
+    rng = np.random.default_rng(5)
+    good = np.eye(4)
+    good[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    good[:3, :3] *= np.sign(np.linalg.det(good[:3, :3]))
+    good[:3, 3] = [0.3, -0.2, 0.5]
+    cases = [good]
+    for r, c, v in ((0, 0, np.nan), (1, 3, np.inf), (2, 3, 2e6), (0, 1, good[0, 1] + 1e-3), (3, 0, 1e-3),
+                    (3, 3, 1.0 + 1e-4), (0, 0, good[0, 0] + 2e-6)):
+        bad = good.copy()
+        bad[r, c] = v
+        cases.append(bad)
+    cases.append(np.diag([1.0, 1.0, -1.0, 1.0]))  # a reflection: orthonormal, det -1
+    for T in cases:
+        def verdict(value):
+            try:
+                return pose_list(value, "target")[0][0].tolist()
+            except PoseError as exc:
+                return str(exc)
+        one, batch = verdict(T), verdict(T[None])
+        assert one == batch
+    assert isinstance(verdict(good), list) and "not a rigid transform" in verdict(cases[-1])
