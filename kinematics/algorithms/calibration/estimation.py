@@ -35,6 +35,8 @@ from ...io.urdf import parse_urdf
 from ...model.robot import RobotModel
 from ...spatial.transforms import make_transform
 from ...tolerances import MAX_ABS_COORDINATE
+from .compliance import Compliance
+from .prior import Prior
 from .errors_model import ErrorModel
 from .identification import identify, residual_and_jacobian, singular_values
 from .urdf_out import corrected_urdf
@@ -214,7 +216,8 @@ def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **opt
 def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
               parameters: str = "full", base="estimate", tool: str = "estimate", loss: str = "linear",
               holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
-              name: str | None = None) -> Calibration:
+              name: str | None = None, compliance: Compliance | None = None,
+              prior: Prior | None = None) -> Calibration:
     """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4).
 
     Args:
@@ -226,6 +229,12 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         loss: ``"linear"`` or ``"huber"``. holdout: the fraction of measurements kept out of the fit.
         rotation_weight: metres per radian of a rotation residual (poses).
         name: the calibrated robot's name (default ``<name>_calibrated``).
+        compliance: a :class:`~.compliance.Compliance` to estimate joint compliance under gravity too
+            (its values are among ``parameters``, ``<joint>.compliance``; the calibrated URDF, which
+            cannot say it, holds the geometric corrections only).
+        prior: a :class:`~.prior.Prior`: the joint parameters estimated by maximum a posteriori (every
+            one fitted, the prior holding those the data do not determine near nominal) after the plain
+            fit of the identifiable combinations; None: the plain fit.
     """
     model.link_indices([link])
     if parameters not in ("full", "joint_offsets"):
@@ -276,7 +285,7 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         link_R = B0[:3, :3] @ (nominal[fit, :3, :3] @ T_tool0[:3, :3].T)
         tool_rotation = _project_rotation(np.sum(np.swapaxes(link_R, 1, 2) @ data[fit, :3, :3], axis=0))
     em = ErrorModel(model, link, measure, parameters, base_mode, tool, R0=B0[:3, :3], t0=B0[:3, 3],
-                    point=T_tool0[:3, 3], tool_rotation=tool_rotation)
+                    point=T_tool0[:3, 3], tool_rotation=tool_rotation, compliance=compliance)
     x0 = em.x0.copy()
     meas_fit = data[fit]
     d = 3 if measure == "position" else 6
@@ -322,7 +331,17 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, z, rotation_weight, "linear", 1.0)
     nfev += n
     x = _full(x0, sel, z)
-    if not np.all(np.isfinite(x)) or np.max(np.abs(x - x0)) > MAX_CORRECTION:
+    identified, prior_w = sel, None
+    if prior is not None:  # MAP from the plain fit: every parameter, the joints' held by the prior
+        r = _residuals(em, Q[fit][inliers], meas_fit[inliers], x, rotation_weight).reshape(-1)
+        noise = prior.noise if prior.noise is not None else np.sqrt(float(r @ r) / max(len(r) - len(sel), 1))
+        prior_w = noise * prior.weights(em)
+        sel = np.arange(len(x0))
+        z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, x.copy(), rotation_weight, "linear",
+                              1.0, prior_w)
+        nfev += n
+        x = z
+    if not np.all(np.isfinite(x)) or np.max(np.abs(em.corrections(Q[fit], x - x0))) > MAX_CORRECTION:
         raise CalibrationError(f"the fit diverged (a parameter moved by more than {MAX_CORRECTION:g} m or rad): the "
                                "measurements do not fit this model and link; with base 'fixed' they must be given "
                                "in the root frame, and with a point guess the marker must be on that link")
@@ -334,14 +353,21 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         bound = _robust_sigma(rr) ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d)
         outliers_fit = np.flatnonzero(np.sum(rr * rr, axis=1) > bound)
 
-    # 5. statistics
-    dof_res = max(len(r) - len(sel), 1)
-    s2 = float(r @ r) / dof_res
-    sv, Vt = singular_values(Js, vectors=True)
+    # 5. statistics (with a prior: the posterior's, the noise its s)
+    if prior_w is None:
+        s2 = float(r @ r) / max(len(r) - len(sel), 1)
+        sv, Vt = singular_values(Js, vectors=True)
+    else:
+        s2 = noise ** 2
+        penalised = np.flatnonzero(prior_w > 0)
+        rows = np.zeros((len(penalised), len(sel)))
+        rows[np.arange(len(penalised)), penalised] = prior_w[penalised]
+        sv, Vt = singular_values(np.vstack([Js, rows]), vectors=True)
     cov = (Vt.T / sv ** 2) @ Vt * s2
     sigma = np.sqrt(np.diag(cov))
-    norms = np.linalg.norm(Js, axis=0)
-    sv_eq = singular_values(Js / np.where(norms > 0, norms, 1.0))
+    Jid = Js[:, np.searchsorted(sel, identified)]  # the condition of what the data determine
+    norms = np.linalg.norm(Jid, axis=0)
+    sv_eq = singular_values(Jid / np.where(norms > 0, norms, 1.0))
     cond = float(sv_eq[0] / sv_eq[-1]) if sv_eq[-1] > 0 else float("inf")
     params = [{"name": em.names[i], "value": float(x[i]), "sigma": float(sigma[k])} for k, i in enumerate(sel)]
 
@@ -392,15 +418,24 @@ def _robust_sigma(r: np.ndarray) -> float:
     return max(1.4826 * float(np.median(np.abs(r - np.median(r, axis=0)))), 1e-12)
 
 
-def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
+def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale, prior_w=None):
+    """The parameters ``sel`` fitted from ``z0`` (the others held at ``x0``); ``prior_w`` (p,): rows
+    ``prior_w_i (x_i - x0_i)`` appended for the parameters of positive weight (a Gaussian prior)."""
+    pw = None if prior_w is None else prior_w[sel]
+    pen = np.array([], dtype=np.intp) if pw is None else np.flatnonzero(pw > 0)
+    prior_rows = np.zeros((len(pen), len(sel)))
+    prior_rows[np.arange(len(pen)), pen] = [] if pw is None else pw[pen]
+
     def fun(z):
         cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
-        return _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
+        r = _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
+        return r if pw is None else np.concatenate([r, pw[pen] * (z[pen] - x0[sel][pen])])
 
     def jac(z):
         cancel.check()  # the Jacobian of every measurement is the larger part of each step
         _, J = residual_and_jacobian(em, Q, _full(x0, sel, z), meas, w)
-        return J.reshape(-1, len(x0))[:, sel]
+        J = J.reshape(-1, len(x0))[:, sel]
+        return J if pw is None else np.vstack([J, prior_rows])
 
     method = "lm" if loss == "linear" else "trf"
     try:
