@@ -101,6 +101,12 @@ class Calibration:
     def urdf(self) -> str:
         return self.model.urdf
 
+    def predict(self, q) -> np.ndarray:
+        """The calibrated poses ``T_device_tool`` (N, 4, 4) at configurations q (N, dof): the device's
+        view of the marker (its translation) or tool, joint compliance included (which the
+        calibrated URDF cannot hold)."""
+        return self.error_model.predict(np.atleast_2d(np.asarray(q, dtype=float)), self.x)
+
 
 #: the largest correction of one parameter a calibration answers (metres or radians): more is a fit
 #: that diverged on measurements the model cannot explain, not a robot as built
