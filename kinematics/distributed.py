@@ -537,6 +537,12 @@ def ik_all_dask(ddf, model, task: IKAllTask, time_column: str | None = TIME_COLU
     return ddf.map_partitions(ik_all_partition, spec, task, offsets, time_column, meta=meta)
 
 
+def part_name(i: int) -> str:
+    """The file of partition ``i`` of an output dataset, numbered so that the names sort in the partitions'
+    order (a reader of the directory gets the rows in the dataset's order)."""
+    return f"part.{i:06d}.parquet"
+
+
 def warm_up_ik(client, spec, task: IKAllTask) -> None:
     """Solve one target on every worker of ``client``: the model and the IK kernels ready before the run."""
     def solve(spec=spec, task=task):
@@ -562,7 +568,7 @@ def run_parquet_ik_all(source, dest, model, task: IKAllTask, address: str = "loc
         ddf = read_parquet_columns(source, task.columns, time_column, blocksize)
         lengths = client.compute(ddf.map_partitions(len), sync=True).tolist()
         mapped = ik_all_dask(ddf, spec, task, time_column, lengths)
-        mapped.to_parquet(str(dest), write_index=False, **WRITE_OPTIONS)
+        mapped.to_parquet(str(dest), write_index=False, name_function=part_name, **WRITE_OPTIONS)
         files = _files(dest)  # a target's solutions are in one file: count them file by file
         solved = sum(len(np.unique(f.read(columns=["target"]).column(0).to_numpy())) for f in files)
         return int(sum(lengths)), int(sum(f.metadata.num_rows for f in files)), int(solved)

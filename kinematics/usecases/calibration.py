@@ -91,10 +91,13 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
     of a rotation residual; ``name``: the calibrated robot's name; ``compliance``: a
     :class:`~kinematics.algorithms.calibration.Compliance` (joint compliance under gravity estimated
     too); ``prior``: a :class:`~kinematics.algorithms.calibration.Prior` (MAP estimate of the joint
-    parameters). With the query's ``verify``, the
+    parameters); either may be given as ``True`` (the defaults) or a map of its fields (a request's JSON). With the query's ``verify``, the
     calibrated model's FK is compared with Pinocchio's on the measured configurations
     (``verification`` of the answer)."""
+    from ..algorithms.calibration import Compliance, Prior
     from ..algorithms.calibration import calibrate as _calibrate
+
+    compliance, prior = _option(Compliance, compliance, "compliance"), _option(Prior, prior, "prior")
 
     query = Query.of(query, **options)
     model, link = _calibration_query(query)
@@ -116,6 +119,22 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
         cal.verification = Verification(REFERENCE_NAME, max_position_error=dev.max_position_error,
                                         max_rotation_error=dev.max_rotation_error)
     return cal
+
+
+def _option(cls, value, name: str):
+    """An option object from itself, ``True`` (its defaults), a map of its fields, or None / False (none)."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return cls()
+    if isinstance(value, dict):
+        try:
+            return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items() if v is not None})
+        except TypeError as exc:
+            raise CalibrationError(f"{name}: {exc}", field=name) from None
+    if isinstance(value, cls):
+        return value
+    raise CalibrationError(f"{name}: give true, a map of its fields or a {cls.__name__}", field=name)
 
 
 def calibration_poses(query: Query | RobotModel, n: int, *, measure: str = "position", random_seed: int = 0,
