@@ -74,11 +74,15 @@ def hand_poses(points: np.ndarray, shape: np.ndarray) -> np.ndarray:
 
 def bl_rms(cal, data, bl: np.ndarray | None = None) -> list[float]:
     """RMS (m) of the predicted BL point against the measured one per session of ``data``; ``bl`` the
-    point in the tool frame when poses were fitted (else the fitted marker is BL itself)."""
+    point in the tool frame when poses were fitted (else the fitted marker is BL itself, or the first
+    of several markers)."""
     out = []
     for Q, points in data:
-        T = cal.predict(Q)
-        p = T[:, :3, 3] if bl is None else T[:, :3, :3] @ bl + T[:, :3, 3]
+        if cal.markers is not None:
+            p = cal.predict_markers(Q)[:, 0]
+        else:
+            T = cal.predict(Q)
+            p = T[:, :3, 3] if bl is None else T[:, :3, :3] @ bl + T[:, :3, 3]
         out.append(float(np.sqrt(np.mean(np.sum((p - points[:, 0]) ** 2, axis=1)))))
     return out
 
@@ -92,7 +96,8 @@ def methods():
             ("full + prior", dict(parameters="full", prior=Prior()), "BL"),
             ("full + compliance", dict(parameters="full", compliance=Compliance()), "BL"),
             ("full + compliance + prior", dict(parameters="full", compliance=Compliance(), prior=Prior()), "BL"),
-            ("full + compliance + prior", dict(parameters="full", compliance=Compliance(), prior=Prior()), "hand poses")]
+            ("full + compliance + prior", dict(parameters="full", compliance=Compliance(), prior=Prior()), "hand poses"),
+            ("full + compliance + prior", dict(parameters="full", compliance=Compliance(), prior=Prior()), "4 markers")]
 
 
 def run_protocol(model, label_kwargs_measure, data=None):
@@ -105,6 +110,9 @@ def run_protocol(model, label_kwargs_measure, data=None):
     t = time.perf_counter()
     if measure == "BL":
         cal = calibrate(model, LINK, Q, positions=points[:, 0], **kwargs)
+        bl = None
+    elif measure == "4 markers":  # the four points as measured: one rigid body of several markers
+        cal = calibrate(model, LINK, Q, positions=points, **kwargs)
         bl = None
     else:  # the hand body's four points as its pose; a radian weighs the body's radius
         shape, radius = hand_frame(points)
@@ -210,7 +218,9 @@ NOTES = """
   not tuned on them (FIGAROH's protocol rule 2). The default `Prior()` is used as is.
 - Hand poses: the four points of the Qualisys hand body registered onto its shape at the first training
   posture (Kabsch), fitted as poses with a radian weighing the body's RMS radius (8.4 cm), which is
-  fitting its four points; judged on the BL point carried by the fitted hand frame.
+  fitting its four points; judged on the BL point carried by the fitted hand frame. 4 markers: the four
+  points given to `calibrate` as they are (positions (N, 4, 3)): it does the same with the body's mean
+  shape (generalised Procrustes) and answers the markers' points on the link; judged on BL's.
 """
 
 

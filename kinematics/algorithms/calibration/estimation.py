@@ -96,6 +96,7 @@ class Calibration:
     x: np.ndarray = field(default=None, repr=False)
     error_model: ErrorModel = field(default=None, repr=False)
     verification: object = None  # set by the use case when asked (a kinematics.Verification)
+    markers: np.ndarray | None = None  # several markers measured: their points (M, 3) on the link
 
     @property
     def urdf(self) -> str:
@@ -106,6 +107,13 @@ class Calibration:
         view of the marker (its translation) or tool, joint compliance included (which the
         calibrated URDF cannot hold)."""
         return self.error_model.predict(np.atleast_2d(np.asarray(q, dtype=float)), self.x)
+
+    def predict_markers(self, q) -> np.ndarray:
+        """Where the device will see each marker (N, M, 3) at configurations q, several markers measured."""
+        if self.markers is None:
+            raise CalibrationError("this calibration was not fitted on several markers")
+        T = self.predict(q) @ np.linalg.inv(self.tool)  # T_device_link: the markers are points on the link
+        return np.einsum("nij,mj->nmi", T[:, :3, :3], self.markers) + T[:, None, :3, 3]
 
 
 #: the largest correction of one parameter a calibration answers (metres or radians): more is a fit
@@ -212,11 +220,42 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
 def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **options) -> Calibration:
     """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
     (the options: :func:`_calibrate`). A numerical breakdown on degenerate data (a linear-algebra
-    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure."""
+    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure.
+
+    Several markers fixed to the link, measured together: ``positions`` (N, M, 3), M >= 3 not on a
+    line. They are one rigid body: their shape is their mean constellation (generalised Procrustes),
+    each measurement the body's pose (Kabsch), fitted as poses whose radian weighs the body's RMS
+    radius -- the residual of its points -- (``rotation_weight`` is set so); ``markers`` of the
+    answer holds their points on the link, :meth:`Calibration.predict_markers` where they will be seen."""
     try:
+        if positions is not None and np.ndim(positions) == 3:
+            shape, poses_, radius = markers_as_poses(np.asarray(positions, dtype=float))
+            cal = _calibrate(model, link, q, None, poses_, **{**options, "rotation_weight": radius})
+            cal.markers = shape @ cal.tool[:3, :3].T + cal.tool[:3, 3]
+            return cal
         return _calibrate(model, link, q, positions, poses, **options)
     except np.linalg.LinAlgError as exc:
         raise CalibrationError(f"the measurements are degenerate: the fit broke down ({exc})") from None
+
+
+def markers_as_poses(P: np.ndarray, iterations: int = 5) -> tuple[np.ndarray, np.ndarray, float]:
+    """Several markers of one rigid body measured together (N, M, 3): their shape (M, 3) about its
+    centroid (the mean constellation, generalised Procrustes from the first measurement's axes), the
+    body's pose (N, 4, 4) at each measurement, and the shape's RMS radius (m)."""
+    if P.ndim != 3 or P.shape[2] != 3 or P.shape[1] < 3:
+        raise CalibrationError(f"several markers: expected positions of shape (N, M, 3) with M >= 3, got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise CalibrationError("several markers: a measured position has a non-finite value (NaN or inf)")
+    shape = P[0] - P[0].mean(axis=0)
+    if np.linalg.svd(shape, compute_uv=False)[1] < 1e-6:
+        raise CalibrationError("several markers: the markers are on a line; they do not give the body's orientation")
+    for _ in range(iterations):
+        T = np.array([kabsch(shape, p) for p in P])
+        local = np.einsum("nji,nmj->nmi", T[:, :3, :3], P - T[:, None, :3, 3])  # each measurement in the body frame
+        shape = local.mean(axis=0)
+        shape -= shape.mean(axis=0)
+    T = np.array([kabsch(shape, p) for p in P])
+    return shape, T, float(np.sqrt(np.mean(np.sum(shape ** 2, axis=1))))
 
 
 def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,

@@ -90,7 +90,7 @@ def test_a_calibration_recovers_a_planted_compliance(tiago):
     assert cal.rmse_after < 3e-5
 
 
-@pytest.mark.parametrize("measure", ["BL", "hand poses"])
+@pytest.mark.parametrize("measure", ["BL", "hand poses", "4 markers"])
 def test_on_figarohs_protocol_we_predict_the_held_out_sessions_at_least_as_well(tiago, measure):
     row = next(m for m in methods() if m[0] == "full + compliance + prior" and m[2] == measure)
     _, _, held, _ = run_protocol(tiago, row, sessions(tiago))
@@ -113,3 +113,21 @@ def test_bad_options_are_refused_by_name(tiago):
     Q, points = sessions(tiago)[0]
     with pytest.raises(CalibrationError, match="head_1_joint is not a moving joint on the path"):
         calibrate(tiago, LINK, Q, positions=points[:, 0], compliance=Compliance(joints=("head_1_joint",)))
+
+
+def test_several_markers_are_one_rigid_body():
+    """markers_as_poses: the shape (about its centroid) and each pose, from noise-free rotated copies."""
+    from kinematics.algorithms.calibration.estimation import markers_as_poses
+    from kinematics.spatial.lie import se3_exp
+
+    rng = np.random.default_rng(8)
+    body = np.array([[0.05, 0.0, 0.0], [0.0, 0.04, 0.0], [-0.03, 0.0, 0.02], [0.0, -0.05, 0.01]])
+    body -= body.mean(axis=0)
+    T = se3_exp(rng.normal(0.0, 0.5, (10, 6)))
+    P = np.einsum("nij,mj->nmi", T[:, :3, :3], body) + T[:, None, :3, 3]
+    shape, poses, radius = markers_as_poses(P)
+    again = np.einsum("nij,mj->nmi", poses[:, :3, :3], shape) + poses[:, None, :3, 3]
+    assert np.abs(again - P).max() < 1e-12
+    assert radius == pytest.approx(np.sqrt(np.mean(np.sum(body ** 2, axis=1))))
+    with pytest.raises(CalibrationError, match="on a line"):
+        markers_as_poses(np.broadcast_to(np.arange(3.0)[None, :, None], (4, 3, 3)))  # three markers on x = y = z
