@@ -34,6 +34,12 @@ task's :class:`CollisionTask` (samples, margin, cache, the user's pairs), the sa
 worker (a seeded matrix), so the answers equal a local run's. A partition is checked in
 slices of ``CollisionTask.chunk`` rows: a worker's memory is bounded by the partition size
 (``blocksize``) and the slice, whatever the dataset's length.
+
+Every IK solution of a dataset of target poses maps the same way (:func:`ik_all_dask`, ``kinematics
+ik --all targets/ --dask local:2 -o solutions/``): each partition answers the rows of the local
+command's CSV (``target``, the joints, the errors, ``within_limits``, ``singular``), the targets
+numbered across the dataset from the partitions' lengths (counted first), solved in chunks of
+``IKAllTask.chunk`` targets; the output files are named in the partitions' order (:func:`part_name`).
 """
 
 from __future__ import annotations
