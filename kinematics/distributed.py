@@ -34,6 +34,12 @@ task's :class:`CollisionTask` (samples, margin, cache, the user's pairs), the sa
 worker (a seeded matrix), so the answers equal a local run's. A partition is checked in
 slices of ``CollisionTask.chunk`` rows: a worker's memory is bounded by the partition size
 (``blocksize``) and the slice, whatever the dataset's length.
+
+Every IK solution of a dataset of target poses maps the same way (:func:`ik_all_dask`, ``kinematics
+ik --all targets/ --dask local:2 -o solutions/``): each partition answers the rows of the local
+command's CSV (``target``, the joints, the errors, ``within_limits``, ``singular``), the targets
+numbered across the dataset from the partitions' lengths (counted first), solved in chunks of
+``IKAllTask.chunk`` targets; the output files are named in the partitions' order (:func:`part_name`).
 """
 
 from __future__ import annotations
@@ -194,9 +200,16 @@ DEFAULT_BLOCKSIZE = "32MiB"
 def read_joint_parquet(source, model, time_column: str | None = TIME_COLUMN, blocksize: str | int | None = DEFAULT_BLOCKSIZE):
     """A Dask dataframe of the joint columns (and the time column) of a Parquet file, directory or
     glob, split into partitions by row groups (``blocksize``: Dask's target partition size)."""
-    dd = _dask()
     model = worker_model(model_spec(model))
-    cols = list(model.joint_names)
+    return read_parquet_columns(source, list(model.joint_names), time_column, blocksize)
+
+
+def read_parquet_columns(source, columns: Sequence[str], time_column: str | None = TIME_COLUMN,
+                         blocksize: str | int | None = DEFAULT_BLOCKSIZE):
+    """A Dask dataframe of ``columns`` (and the time column, first, when the files have it) of a
+    Parquet file, directory or glob, split into partitions by row groups (``blocksize``)."""
+    dd = _dask()
+    cols = list(columns)
     import pyarrow.parquet as pq
 
     from .io.parquet import parquet_files
@@ -436,5 +449,134 @@ def run_parquet_trajectories(source, dest, model, task: TrajectoryTask, address:
         ddf.map_partitions(trajectory_partition, spec, task, meta=meta).to_parquet(str(dest), write_index=False,
                                                                                   **WRITE_OPTIONS)
         return sum(len(p) for p in parts)
+    finally:
+        close(client)
+
+
+# ---------------------------------------------------------------------- every IK solution of many targets
+@dataclass(frozen=True)
+class IKAllTask:
+    """What a partition of target poses needs besides its rows: the ``link`` placed at them, the
+    :class:`~kinematics.usecases.ik_options.IKOptions` of the run (solution set ``all``), the ``seed``
+    (or None), the user's ``collision_pairs`` (or None), the target ``columns`` (``x, y, z, qw, qx, qy,
+    qz``, a prefix allowed) and ``chunk``: targets solved at once, so that a worker holds one partition
+    of targets, one chunk's solver state and the partition's solutions, whatever the dataset's length."""
+
+    link: str
+    options: Any
+    columns: tuple[str, ...]
+    seed: Any = None
+    collision_pairs: Any = None
+    chunk: int = 4096
+
+
+def ik_all_columns(joint_names: Sequence[str]) -> list[str]:
+    """The columns of every-solution rows: ``target`` (0-based, across the dataset), the joints,
+    ``position_error``, ``rotation_error``, ``within_limits``, ``singular`` (the local command's CSV)."""
+    return ["target", *joint_names, "position_error", "rotation_error", "within_limits", "singular"]
+
+
+def ik_all_rows(answer, start: int) -> dict[str, np.ndarray]:
+    """The rows of every solution of an :class:`~kinematics.usecases.IKAllAnswer`, target by target
+    and each target's in the answer's order (as the local command writes them), the targets
+    numbered from ``start``."""
+    K = answer.q.shape[1]
+    n, k = np.nonzero(np.arange(K)[None, :] < np.asarray(answer.count)[:, None])
+    q = answer.q[n, k]
+    cols: dict[str, np.ndarray] = {"target": (start + n).astype(np.int64)}
+    cols.update({name: np.ascontiguousarray(q[:, j]) for j, name in enumerate(answer.joint_names)})
+    cols["position_error"], cols["rotation_error"] = answer.position_error[n, k], answer.rotation_error[n, k]
+    cols["within_limits"], cols["singular"] = answer.within_limits[n, k], answer.singular[n, k]
+    return cols
+
+
+def ik_all_partition(df, spec, task: IKAllTask, offsets: Sequence[int] = (0,), time_column: str | None = TIME_COLUMN,
+                     partition_info=None):
+    """Every solution (a pandas DataFrame of :func:`ik_all_columns`, the target's time first when ``df``
+    has the time column) of the targets of one partition ``df``; ``offsets[i]``: the index of
+    partition i's first target in the dataset (Dask passes ``partition_info``)."""
+    import pandas as pd
+
+    from .io.parquet import check_unit_quaternions, pose_matrices
+    from .usecases import Query
+
+    model = worker_model(spec)
+    start = int(offsets[partition_info["number"]]) if partition_info else int(offsets[0])
+    A = df[list(task.columns)].to_numpy(dtype=np.float64)
+    check_unit_quaternions(A, "targets", start, task.columns)
+    T = pose_matrices(A)
+    names = ik_all_columns(model.joint_names)
+    times = df[time_column].to_numpy() if time_column is not None and time_column in df.columns else None
+    query = Query(model, link=task.link, collision_pairs=task.collision_pairs)
+    frames = []
+    for s in range(0, len(T), task.chunk):
+        cols = ik_all_rows(api.ik(query, T[s:s + task.chunk], seed=task.seed, options=task.options), start + s)
+        frame = pd.DataFrame(cols, columns=names)
+        if times is not None:
+            frame.insert(0, time_column, times[cols["target"] - start])
+        frames.append(frame)
+    if frames:
+        return pd.concat(frames, ignore_index=True)
+    empty = pd.DataFrame({"target": np.zeros(0, np.int64), **{n: np.zeros(0) for n in names[1:-2]},
+                          "within_limits": np.zeros(0, bool), "singular": np.zeros(0, bool)}, columns=names)
+    if times is not None:
+        empty.insert(0, time_column, df[time_column].iloc[:0])
+    return empty
+
+
+def ik_all_dask(ddf, model, task: IKAllTask, time_column: str | None = TIME_COLUMN, lengths: Sequence[int] | None = None):
+    """Every IK solution of every target pose (rows of ``task.columns``) of the Dask dataframe ``ddf``:
+    a lazy Dask dataframe of :func:`ik_all_columns` (the time column first when ``ddf`` has it), one
+    partition per input partition. ``lengths``: the partitions' row counts (counted here if not given:
+    a pass over the partitions as they are, not a projection of them, which Dask may split otherwise),
+    which number the targets across the dataset."""
+    spec = model_spec(model)
+    m = worker_model(spec)
+    api.resolve_links(m, [task.link])
+    missing = [c for c in task.columns if c not in ddf.columns]
+    if missing:
+        raise KinematicsError(f"the dataframe has no target column(s) {', '.join(missing)}")
+    if lengths is None:
+        lengths = ddf.map_partitions(len).compute().tolist()
+    offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64).tolist()
+    meta = ik_all_partition(ddf._meta, spec, task, [0], time_column)
+    return ddf.map_partitions(ik_all_partition, spec, task, offsets, time_column, meta=meta)
+
+
+def part_name(i: int) -> str:
+    """The file of partition ``i`` of an output dataset, numbered so that the names sort in the partitions'
+    order (a reader of the directory gets the rows in the dataset's order)."""
+    return f"part.{i:06d}.parquet"
+
+
+def warm_up_ik(client, spec, task: IKAllTask) -> None:
+    """Solve one target on every worker of ``client``: the model and the IK kernels ready before the run."""
+    def solve(spec=spec, task=task):
+        from .usecases import Query
+
+        model = worker_model(spec)
+        T = api.fk(model, model.sample_configurations(1, np.random.default_rng(0)), links=[task.link]).poses[:, 0]
+        api.ik(Query(model, link=task.link), T, options=task.options)
+
+    client.run(solve)
+
+
+def run_parquet_ik_all(source, dest, model, task: IKAllTask, address: str = "local",
+                       time_column: str | None = TIME_COLUMN, blocksize=DEFAULT_BLOCKSIZE) -> tuple[int, int, int]:
+    """Every IK solution of every target of the Parquet dataset ``source`` on the Dask cluster at
+    ``address``, written as the Parquet dataset ``dest`` (one file per partition): ``(targets, solutions,
+    targets with a solution)``."""
+    spec = model_spec(model)
+    client = connect(address)
+    try:
+        warm_up(client, spec)
+        warm_up_ik(client, spec, task)
+        ddf = read_parquet_columns(source, task.columns, time_column, blocksize)
+        lengths = client.compute(ddf.map_partitions(len), sync=True).tolist()
+        mapped = ik_all_dask(ddf, spec, task, time_column, lengths)
+        mapped.to_parquet(str(dest), write_index=False, name_function=part_name, **WRITE_OPTIONS)
+        files = _files(dest)  # a target's solutions are in one file: count them file by file
+        solved = sum(len(np.unique(f.read(columns=["target"]).column(0).to_numpy())) for f in files)
+        return int(sum(lengths)), int(sum(f.metadata.num_rows for f in files)), int(solved)
     finally:
         close(client)

@@ -97,3 +97,25 @@ def write_joint_dataset(root: Path, model, sizes, seed: int, row_group_size: int
         Qs.append(Q)
         start += n
     return np.concatenate(Qs)
+
+
+def write_target_dataset(root: Path, model, link: str, sizes, seed: int, row_group_size: int) -> np.ndarray:
+    """A Parquet dataset ``root/targets/part-K.parquet`` of ``link``'s poses at random configurations of
+    ``model`` (the columns of ``kinematics fk``'s Parquet output, ``<link>.x ... <link>.qz``, and ``time``
+    numbering the rows across files), ``sizes`` rows a file: every row's target (N, 4, 4)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from kinematics import fk
+    from kinematics.io.parquet import result_columns
+
+    (root / "targets").mkdir()
+    rng = np.random.default_rng(seed)
+    Ts, start = [], 0
+    for k, n in enumerate(sizes):
+        T = fk(model, model.sample_configurations(n, rng), links=[link]).poses
+        cols = {"time": pa.array(np.arange(start, start + n, dtype=np.int64)), **result_columns("fk", T, [link])}
+        pq.write_table(pa.table(cols), root / "targets" / f"part-{k}.parquet", row_group_size=row_group_size)
+        Ts.append(T[:, 0])
+        start += n
+    return np.concatenate(Ts)

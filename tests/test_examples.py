@@ -159,6 +159,15 @@ def test_example_09_calibration():
     assert nominal > 2 and calibrated < 30
 
 
+def test_example_17_calibration_compliance():
+    out = run_example("17_calibration_compliance.py")
+    assert "identifiable: 39" in out
+    rows = re.findall(r"plain ([0-9.]+) mm, compliance \+ prior ([0-9.]+) mm \(FIGAROH ([0-9.]+)\)", out)
+    assert len(rows) == 3
+    for plain, ours, figaroh in (map(float, r) for r in rows):
+        assert ours <= figaroh < plain  # the held-out sessions: FIGAROH's published full_params beaten
+
+
 def test_example_10_ik_all():
     out = run_example("10_ik_all.py")
     assert "ur5 family: three_parallel" in out

@@ -28,6 +28,23 @@ class PoseMeasurement(BaseModel):
     pose: BasePose = Field(description="the tool's pose as the device saw it (T_device_tool)")
 
 
+class ComplianceOption(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    joints: Union[list[str], None] = Field(default=None, description="the joints given a compliance (default every "
+                                                                    "moving joint on the path)")
+    gravity: Union[Point, None] = Field(default=None, description="the gravity vector in the root frame, m/s^2 "
+                                                                  "(default [0, 0, -9.81])")
+
+
+class PriorOption(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    length: Finite = Field(default=0.01, gt=0.0, description="standard deviation of a joint origin's translation, m")
+    angle: Finite = Field(default=0.02, gt=0.0, description="of a joint origin's rotation and of a zero offset, rad")
+    compliance: Finite = Field(default=0.005, gt=0.0, description="of a joint compliance, rad/(N m)")
+    noise: Union[Finite, None] = Field(default=None, gt=0.0, description="the measurement noise, m (default: the "
+                                                                         "spread of the plain fit's residuals)")
+
+
 class CalibrationRequest(ToQuery, BaseModel):
     model_config = ConfigDict(extra="forbid")
     link: Union[str, None] = Field(default=None, description="the link the marker or tool is fixed to (default: the "
@@ -53,6 +70,13 @@ class CalibrationRequest(ToQuery, BaseModel):
     rotation_weight: Finite = Field(default=1.0, gt=0.0, le=1e3, description="metres per radian of a rotation "
                                                                            "residual (poses): 1 weighs 1 mrad as 1 mm")
     name: Union[str, None] = Field(default=None, max_length=200, description="the calibrated model's name")
+    compliance: Union[bool, ComplianceOption, None] = Field(
+        default=None, description="true or {joints, gravity}: estimate each joint's compliance under gravity too (its "
+                                  "value lags by c times the torque it holds, from the URDF's masses; <joint>.compliance "
+                                  "in parameters; the calibrated URDF holds the geometric corrections only)")
+    prior: Union[bool, PriorOption, None] = Field(
+        default=None, description="true or {length, angle, compliance, noise}: a maximum a posteriori fit, every "
+                                  "joint parameter held near nominal within these standard deviations")
     verify: Flag = Field(default=False, description="also compare the calibrated model's FK with Pinocchio's on the "
                                                     "measured configurations (verification)")
 

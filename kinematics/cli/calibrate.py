@@ -48,6 +48,12 @@ def register(sub) -> None:
     p.add_argument("--rotation-weight", type=float, default=1.0, metavar="M",
                    help="metres per radian of a rotation residual (poses; default 1)")
     p.add_argument("--name", help="the calibrated robot's name")
+    p.add_argument("--compliance", nargs="?", const="all", metavar="JOINT,...",
+                   help="also estimate joint compliance under gravity (c times the torque a joint holds, from the "
+                   "URDF's masses): every joint on the path, or those named")
+    p.add_argument("--prior", action="store_true",
+                   help="maximum a posteriori: joint origins within 1 cm and 20 mrad, zeros within 20 mrad, "
+                   "compliances within 5 mrad/(N m) (one standard deviation)")
     p.add_argument("-o", "--output", metavar="URDF", help="write the calibrated URDF")
     p.add_argument("--json", metavar="FILE", help="write the result (base, point/tool, parameters, residuals) as JSON")
     p.add_argument("--plot", metavar="PNG", help="draw the residual of every measurement before and after")
@@ -91,7 +97,8 @@ def run_calibrate(args) -> int:
         return fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
     cal = usecases.calibrate(query, csv=text, parameters=args.parameters,
                              base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
-                             random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name)
+                             random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name,
+                             compliance=_compliance(args.compliance), prior=args.prior)
     print(report(cal, model.name))
     if args.output:
         _write(args.output, cal.urdf.encode("utf-8"))
@@ -123,9 +130,10 @@ def report(cal, name: str) -> str:
     lines = [f"calibration of {name} link {cal.link} from {len(cal.residuals_after)} measured {cal.measure}s: "
              f"{cal.identifiable} identifiable combinations, condition number {cal.condition_number:.3g}",
              f"  {'parameter':<34} {'value':>14} {'sigma':>12}"]
-    angular = {q.name: q.angular for q in cal.error_model.parameters}
+    units = {q.name: "mrad/Nm" if q.component == "compliance" else "mrad" if q.angular else "mm"
+             for q in cal.error_model.parameters}
     for p in cal.parameters:
-        unit = "mrad" if angular[p["name"]] else "mm"  # both scaled by 1e3
+        unit = units[p["name"]]  # every unit scaled by 1e3
         lines.append(f"  {p['name']:<34} {p['value'] * 1e3:>11.4f} {unit:<4} {p['sigma'] * 1e3:>8.4f} {unit}")
     lines.append(f"  unidentifiable: {len(cal.unidentifiable)}")
     for u in cal.unidentifiable:
@@ -200,3 +208,10 @@ def run_poses(args) -> int:
         print(header)
         print(rows)
     return EXIT_OK
+
+
+def _compliance(value: str | None):
+    """``--compliance`` as the use case takes it: None, True (every path joint) or the joints named."""
+    if value is None:
+        return None
+    return True if value == "all" else {"joints": [j for j in value.split(",") if j]}

@@ -109,6 +109,11 @@ def register(sub) -> None:
                    "one JSON line per target)")
     p.add_argument("--select", choices=("nearest", "margin", "manipulability"), default=None,
                    help="with --all on a 7-joint chain: the one best in-limit solution over the whole self-motion")
+    p.add_argument("--dask", metavar="SCHEDULER|local:N",
+                   help="with --all: solve on Dask over the partitions of a Parquet INPUT of target poses (file, "
+                   "directory or glob): a scheduler address (tcp://host:8786) or local:N worker processes; OUTPUT "
+                   "is a directory of Parquet files, the rows of the local CSV (the time column first when INPUT "
+                   "has one)")
     add_filter_options(p, "--avoid-collisions", "answers free of self-collision only: with --all the colliding "
                        "solutions are left out; else the search goes on until a free answer is found (success only "
                        "when free)")
@@ -155,6 +160,10 @@ def run_ik(args) -> int:
     locked = parse_locked(args.locked)
     if isinstance(locked, str):
         return fail("ik", locked, EXIT_USAGE)
+    if args.dask and not args.all:
+        return fail("ik", "--dask needs --all", EXIT_USAGE)
+    if args.dask:
+        return _solve_all_dask(args, model, link, seed, locked)
     if args.all or locked:
         return quietly(_solve_all, args, model, link, seed, locked)
     if redundancy_of(args) is not None:
@@ -251,6 +260,36 @@ def _solve_all(args, model, link: str, seed, locked) -> int:
     print(f"ik: {rows} solutions of {total} targets ({family}, {method}); {unsolved} targets without a solution"
           f"{left_out}", file=sys.stderr)
     return EXIT_DISAGREE if unsolved else EXIT_OK
+
+
+def _solve_all_dask(args, model, link: str, seed, locked) -> int:
+    """``--all --dask``: every solution of every target of a Parquet INPUT, mapped over its partitions
+    (:func:`kinematics.distributed.ik_all_dask`); the same rows as the local command's."""
+    from .. import distributed
+    from ..errors import KinematicsError
+    from ..io.parquet import ParquetTargetRows, is_parquet
+
+    if args.input == "-" or not is_parquet(args.input):
+        return fail("ik", "--dask reads a Parquet INPUT of target poses (a file, a directory or a glob)", EXIT_USAGE)
+    if args.output == "-":
+        return fail("ik", "--dask writes a directory of Parquet files: give -o DIRECTORY", EXIT_USAGE)
+    if redundancy_of(args) is not None or args.verify:
+        return fail("ik", "--redundancy, --values, --intervals, --select and --verify are not available with --dask",
+                    EXIT_USAGE)
+    try:
+        api.ik_family(model, link=link, locked=locked)  # a bad --locked fails before the cluster starts
+        with ParquetTargetRows(args.input, time_column=args.time_column) as rows:
+            columns, time_column = tuple(rows.names), rows.time_column
+        spec = distributed.model_spec(model_id=args.model, urdf=args.urdf, dh=args.dh)
+        task = distributed.IKAllTask(link, ik_options(args, SolutionSet("all", args.method, locked or None, args.limits)),
+                                     columns, seed=seed, collision_pairs=user_pairs(args), chunk=args.chunk)
+        targets, solutions, solved = distributed.run_parquet_ik_all(args.input, args.output, spec, task, address=args.dask,
+                                                            time_column=time_column)
+    except (KinematicsError, OSError) as exc:
+        return fail("ik", str(exc), EXIT_USAGE)
+    print(f"ik: {solutions} solutions of {targets} targets on Dask -> {args.output}; {targets - solved} targets "
+          "without a solution", file=sys.stderr)
+    return EXIT_DISAGREE if solved < targets else EXIT_OK
 
 
 def _bad_option(args) -> str | None:

@@ -233,21 +233,32 @@ class ParquetTargetRows(_ParquetRows):
 
     def _block(self, batch, start):
         A = super()._block(batch, start)
-        norm = np.linalg.norm(A[:, 3:], axis=1)
-        bad = np.flatnonzero(np.abs(norm - 1.0) > RIGID_TOLERANCE)
-        if bad.size:
-            raise TrajectoryFileError(f"{self.name}: row {start + int(bad[0])}, columns {', '.join(self.names[3:])}: "
-                                      f"not a unit quaternion (norm {norm[bad[0]]:.9g})")
+        check_unit_quaternions(A, self.name, start, self.names)
         return A
 
     def _chunk(self, A):
-        norm = np.linalg.norm(A[:, 3:], axis=1)
-        quat = A[:, 3:] / norm[:, None]
-        T = np.zeros((A.shape[0], 4, 4))
-        T[:, :3, :3] = np.moveaxis(quaternion_to_matrix(*quat.T), -1, 0)
-        T[:, :3, 3] = A[:, :3]
-        T[:, 3, 3] = 1.0
-        return T
+        return pose_matrices(A)
+
+
+def check_unit_quaternions(A: np.ndarray, name: str, start: int, columns) -> None:
+    """Refuse a row of ``x, y, z, qw, qx, qy, qz`` (n, 7) whose quaternion is not unit to
+    ``RIGID_TOLERANCE``, naming the file, the row (``start`` the first's) and the columns."""
+    norm = np.linalg.norm(A[:, 3:], axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > RIGID_TOLERANCE)
+    if bad.size:
+        raise TrajectoryFileError(f"{name}: row {start + int(bad[0])}, columns {', '.join(list(columns)[3:])}: "
+                                  f"not a unit quaternion (norm {norm[bad[0]]:.9g})")
+
+
+def pose_matrices(A: np.ndarray) -> np.ndarray:
+    """Poses (n, 4, 4) of rows ``x, y, z, qw, qx, qy, qz`` (n, 7) (the quaternions normalised)."""
+    norm = np.linalg.norm(A[:, 3:], axis=1)
+    quat = A[:, 3:] / norm[:, None]
+    T = np.zeros((A.shape[0], 4, 4))
+    T[:, :3, :3] = np.moveaxis(quaternion_to_matrix(*quat.T), -1, 0)
+    T[:, :3, 3] = A[:, :3]
+    T[:, 3, 3] = 1.0
+    return T
 
 
 def _list(names, most: int = 12) -> str:

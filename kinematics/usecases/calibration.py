@@ -79,7 +79,7 @@ def _calibration_query(query: Query) -> tuple[RobotModel, str]:
 def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str | bytes | None = None,
               parameters: str = "full", base: Any = "estimate", tool: str = "estimate", loss: str = "linear",
               holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0, name: str | None = None,
-              **options: Any):
+              compliance=None, prior=None, **options: Any):
     """Calibrate the query's ``link`` from measurements (see :func:`calibration_measurements`):
     a :class:`~kinematics.algorithms.calibration.Calibration` whose ``model`` is the calibrated model,
     ``base`` its ``T_device_root`` and ``point`` / ``tool`` the marker / tool on the link.
@@ -88,10 +88,16 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
     pose ``T_device_root`` (held there); ``tool``: ``"estimate"`` or ``"fixed"`` (at the query's
     ``point`` / ``tool``); ``parameters``: ``"full"`` or ``"joint_offsets"``; ``loss``: ``"linear"`` or
     ``"huber"``; ``holdout``: the fraction kept out of the fit; ``rotation_weight``: metres per radian
-    of a rotation residual; ``name``: the calibrated robot's name. With the query's ``verify``, the
+    of a rotation residual; ``name``: the calibrated robot's name; ``compliance``: a
+    :class:`~kinematics.algorithms.calibration.Compliance` (joint compliance under gravity estimated
+    too); ``prior``: a :class:`~kinematics.algorithms.calibration.Prior` (MAP estimate of the joint
+    parameters); either may be given as ``True`` (the defaults) or a map of its fields (a request's JSON). With the query's ``verify``, the
     calibrated model's FK is compared with Pinocchio's on the measured configurations
     (``verification`` of the answer)."""
+    from ..algorithms.calibration import Compliance, Prior
     from ..algorithms.calibration import calibrate as _calibrate
+
+    compliance, prior = _option(Compliance, compliance, "compliance"), _option(Prior, prior, "prior")
 
     query = Query.of(query, **options)
     model, link = _calibration_query(query)
@@ -102,7 +108,8 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
     guess = None if T_tool is None else T_tool[:3, 3]
     cal = _calibrate(model, link, Q, positions=P, poses=T, point=guess,
                      tool_guess=T_tool if T is not None else None, parameters=parameters, base=base, tool=tool,
-                     loss=loss, holdout=holdout, random_seed=random_seed, rotation_weight=rotation_weight, name=name)
+                     loss=loss, holdout=holdout, random_seed=random_seed, rotation_weight=rotation_weight, name=name,
+                     compliance=compliance, prior=prior)
     if query.verify:
         from ..verify.pinocchio import REFERENCE_NAME, compare_fk
         from .query import Verification
@@ -112,6 +119,22 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
         cal.verification = Verification(REFERENCE_NAME, max_position_error=dev.max_position_error,
                                         max_rotation_error=dev.max_rotation_error)
     return cal
+
+
+def _option(cls, value, name: str):
+    """An option object from itself, ``True`` (its defaults), a map of its fields, or None / False (none)."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return cls()
+    if isinstance(value, dict):
+        try:
+            return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items() if v is not None})
+        except TypeError as exc:
+            raise CalibrationError(f"{name}: {exc}", field=name) from None
+    if isinstance(value, cls):
+        return value
+    raise CalibrationError(f"{name}: give true, a map of its fields or a {cls.__name__}", field=name)
 
 
 def calibration_poses(query: Query | RobotModel, n: int, *, measure: str = "position", random_seed: int = 0,

@@ -160,6 +160,18 @@ class PinocchioReference:
             v[idx_v:idx_v + len(val)] = val
         return v
 
+    def gravity(self, q: np.ndarray) -> dict[str, float]:
+        """The generalised gravity torque of each of our one-dof joints at q (nq,) (Pinocchio's
+        ``computeGeneralizedGravity``, from the URDF's inertials; gravity along the root's -z, 9.81)."""
+        pm = self.pin_model
+        saved = pm.gravity.linear.copy()
+        try:
+            pm.gravity.linear = np.array([0.0, 0.0, -9.81])
+            g = pin.computeGeneralizedGravity(pm, self.data(), self.to_pinocchio_q(np.asarray(q, dtype=float)))
+        finally:
+            pm.gravity.linear = saved
+        return {name: float(g[idx_v]) for _, idx_v, jtype, name in self.q_map if jtype not in ("floating", "planar")}
+
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """Every link's pose for one configuration: {link: 4x4}."""
         d = self.data()

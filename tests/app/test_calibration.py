@@ -111,3 +111,22 @@ def test_calibration_poses(api_client):
     assert np.array(out["q"]).shape == (12, 6)
     assert out["measure"]["log_det"] > out["measure"]["random_log_det"]
     assert out["measure"]["identifiable"] == 27
+
+
+def test_calibrate_with_compliance_and_prior(api_client):
+    """FIGAROH's TIAGo training session: the compliances are among the parameters; a bad option is a 422."""
+    from bench.figaroh_tiago import FIXTURES, LINK, SESSIONS, read_session
+    from kinematics import default_catalogue
+
+    tiago = default_catalogue().get("tiago")
+    Q, points = read_session(FIXTURES / SESSIONS[0][2], tiago)
+    req = {"link": LINK, "measurements": [{"q": q.tolist(), "position": p.tolist()} for q, p in zip(Q, points[:, 0])],
+           "compliance": {"joints": ["arm_2_joint", "arm_4_joint"]}, "prior": True}
+    r = api_client.post("/models/tiago/calibrate", json=req)
+    assert r.status_code == 201, r.text
+    names = [p["name"] for p in r.json()["parameters"]]
+    assert "arm_2_joint.compliance" in names and "arm_3_joint.compliance" not in names
+    assert r.json()["rmse_after"] < 2e-3
+    for bad, word in (({"prior": {"length": -1}}, "length"), ({"compliance": {"joints": ["head_1_joint"]}}, "head_1_joint")):
+        r = api_client.post("/models/tiago/calibrate", json={**req, **bad})
+        assert r.status_code == 422 and word in r.text, r.text

@@ -63,3 +63,19 @@ def test_bad_measurements_exit_2_naming_the_problem(tmp_path, capsys, measured):
     bad.write_text("\n".join(csv.read_text().splitlines()[:6]) + "\n")
     assert main(["calibrate", "--model", "ur5", "--link", "tool0", str(bad)]) == 2
     assert "equations" in capsys.readouterr().err
+
+
+def test_calibrate_with_compliance_and_prior(tmp_path, capsys):
+    """FIGAROH's TIAGo training session as a CSV: --compliance JOINTS and --prior reach the fit."""
+    from bench.figaroh_tiago import FIXTURES, LINK, SESSIONS, read_session
+    from kinematics import default_catalogue
+
+    tiago = default_catalogue().get("tiago")
+    Q, points = read_session(FIXTURES / SESSIONS[0][2], tiago)
+    csv = tmp_path / "tiago.csv"
+    csv.write_text("\n".join([",".join([*tiago.joint_names, "x", "y", "z"])]
+                             + [",".join(repr(float(v)) for v in [*q, *p]) for q, p in zip(Q, points[:, 0])]) + "\n")
+    assert main(["calibrate", "--model", "tiago", "--link", LINK, str(csv), "--compliance", "arm_2_joint,arm_4_joint",
+                 "--prior"]) == 0
+    out = capsys.readouterr().out
+    assert "arm_2_joint.compliance" in out and "mrad/Nm" in out and "arm_3_joint.compliance" not in out

@@ -4,6 +4,8 @@
   offsets, the device frame, the tool), with its analytic Jacobian;
 - :mod:`.identification` -- which parameter combinations the data determine, and why the rest not;
 - :mod:`.estimation` -- :func:`calibrate`: registration, Levenberg-Marquardt, robust loss, statistics;
+- :mod:`.compliance` -- :class:`Compliance`: joint compliance under gravity (the non-geometric term);
+- :mod:`.prior` -- :class:`Prior`: tolerances on the joint parameters (maximum a posteriori);
 - :mod:`.poses` -- :func:`select_poses`: where to measure (D-optimal);
 - :mod:`.urdf_out` -- the calibrated URDF; :mod:`.synthetic` -- planted truth for tests and benchmarks.
 
@@ -17,7 +19,9 @@ try:
 except ImportError as exc:  # the `calibration` extra
     raise MissingExtraError.of("calibration", "kinematic calibration", "scipy") from exc
 
+from .compliance import Compliance
 from .estimation import Calibration, calibrate
 from .poses import PoseChoice, select_poses
+from .prior import Prior
 
-__all__ = ["Calibration", "PoseChoice", "calibrate", "select_poses"]
+__all__ = ["Calibration", "Compliance", "PoseChoice", "Prior", "calibrate", "select_poses"]

@@ -19,6 +19,10 @@ over the moving joints ``j`` on the path from the root to ``link``:
 - ``F``: the tool on the link, ``T_link_tool = Tx Ty Tz`` (a marker point, positions measured)
   or ``Tx Ty Tz Rz Ry Rx · R_tool`` (a tool frame, poses measured).
 
+With a :class:`~.compliance.Compliance` option the joint values are ``θ_j(q) + ε_j - c_j τ_j(q)``:
+``c_j`` the joint's compliance, ``τ_j(q)`` its gravity torque at the nominal geometry (a known
+function of q), so its derivative is the zero offset's twist times ``-τ_j(q)``.
+
 At ``x = 0`` (and the base and tool at identity) this is the product's own forward kinematics
 (:class:`~kinematics.engine.poe.PoEModel`; the tests hold them equal). Because every factor is
 the exponential of a fixed screw times a scalar, the derivative with respect to any parameter
@@ -38,6 +42,7 @@ from ...errors import UnsupportedJointError
 from ...model.robot import RobotModel
 from ...spatial.rotations import skew
 from ...spatial.transforms import exp_screws
+from .compliance import Compliance, GravityTorques
 
 #: the six unit screws (linear part first) of a frame's x, y, z translations and z, y, x rotations,
 #: in the order of an origin correction ``Tx Ty Tz Rz Ry Rx``
@@ -90,6 +95,7 @@ class ErrorModel:
             ``"joint_offsets"`` (the zero offsets only).
         base, tool: ``"estimate"`` or ``"fixed"``.
         R0: the start rotation of the device frame (3, 3); ``tool_rotation``: of the tool (3, 3).
+        compliance: a :class:`~.compliance.Compliance` (a compliance ``c_j`` per chosen joint), or None.
 
     ``names`` lists the parameters in the order of the vector ``x``; ``x0`` holds the start
     values (the base translation and the tool point are absolute, everything else 0).
@@ -98,7 +104,7 @@ class ErrorModel:
     def __init__(self, model: RobotModel, link: str, measure: str = "position", parameters: str = "full",
                  base: str = "estimate", tool: str = "estimate", R0: np.ndarray | None = None,
                  t0: np.ndarray | None = None, point: np.ndarray | None = None,
-                 tool_rotation: np.ndarray | None = None):
+                 tool_rotation: np.ndarray | None = None, compliance: Compliance | None = None):
         if model.multi_dof:
             raise UnsupportedJointError("calibration needs a model of one-dof joints (no floating or planar joint)")
         model.link_indices([link])  # UnknownLinkError names it
@@ -125,6 +131,11 @@ class ErrorModel:
             else:
                 leader, m, o = resolved
                 self.value_map.append((model.q_index[leader], m, o))
+        self.compliance = compliance
+        compliant = [] if compliance is None else compliance.path_joints(model, self.joints)
+        self.compliant = {k: n for n, k in enumerate(compliant)}  # path index -> column of the torques
+        self.gravity_torques = GravityTorques(model, [self.joints[k] for k in compliant],
+                                              compliance.gravity) if compliant else None
         params: list[Parameter] = []
         if base == "estimate":
             params += [Parameter(f"base.{_BASE_NAMES[c]}", "base", c, c in _ANGLES) for c in ORIGIN_COMPONENTS]
@@ -132,6 +143,8 @@ class ErrorModel:
             if parameters == "full":
                 params += [Parameter(f"{j.name}.{c}", j.name, c, c in _ANGLES, k) for c in ORIGIN_COMPONENTS]
             params.append(Parameter(f"{j.name}.offset", j.name, "offset", j.type != "prismatic", k))
+            if k in self.compliant:
+                params.append(Parameter(f"{j.name}.compliance", j.name, "compliance", False, k))
         if tool == "estimate":
             comps = ("x", "y", "z") if measure == "position" else ORIGIN_COMPONENTS
             params += [Parameter(f"tool.{c}", "tool", c, c in _ANGLES) for c in comps]
@@ -151,41 +164,62 @@ class ErrorModel:
         self.base_mode, self.tool_mode, self.mode = base, tool, parameters
 
     # ------------------------------------------------------------------ the chain
-    def _factors(self, Q: np.ndarray, x: np.ndarray):
-        """The chain as a list of ``(matrix (N, 4, 4) or (4, 4), screw or None, parameter index)``:
-        a constant (screw None) or a one-parameter factor ``exp([ξ] value)``; the joint factors
-        carry their zero offset's index (or -1)."""
-        out = []
+    def torques(self, Q: np.ndarray) -> np.ndarray | None:
+        """The gravity torques (N, compliant joints) at Q, or None without compliance."""
+        return None if self.gravity_torques is None else self.gravity_torques(Q)
 
-        def param_factor(xi, idx, fixed_value=0.0):
-            v = x[idx] if idx >= 0 else fixed_value
-            return (factor_matrix(xi, np.array([v]))[0], xi, idx)  # one value for every configuration
+    def corrections(self, Q: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """The size of each parameter change ``dx`` (p,) in metres or radians: a compliance's is the
+        largest deflection it causes over the configurations Q."""
+        out = np.abs(np.asarray(dx, dtype=float)).copy()
+        if self.compliant:
+            tau = np.abs(self.torques(Q)).max(axis=0)
+            for k, n in self.compliant.items():
+                out[self.index[f"{self.joints[k].name}.compliance"]] *= tau[n]
+        return out
+
+    def _factors(self, Q: np.ndarray, x: np.ndarray):
+        """The chain as a list of ``(matrix (N, 4, 4) or (4, 4), screw or None, terms)``: a constant
+        (screw None, no terms) or a factor ``exp([ξ] value)`` whose value moves with the parameters
+        ``terms``: ``(index, weight)`` pairs, the weight None (1) or per configuration (N,) -- a
+        joint factor's zero offset, and its compliance weighted by ``-τ_j(q)``."""
+        out = []
+        tau = self.torques(Q)
+
+        def param_factor(xi, idx):
+            return (factor_matrix(xi, np.array([x[idx]]))[0], xi, ((idx, None),))  # one value for every configuration
 
         # base
         if self.base_mode == "estimate":
             for c in ORIGIN_COMPONENTS:
                 out.append(param_factor(_UNIT[c], self.index[f"base.{_BASE_NAMES[c]}"]))
         else:
-            out.append((_translation(self.base_translation), None, -1))
-        out.append((_rotation(self.R0), None, -1))
+            out.append((_translation(self.base_translation), None, ()))
+        out.append((_rotation(self.R0), None, ()))
         for k, j in enumerate(self.joints):
-            out.append((self.C[k], None, -1))
+            out.append((self.C[k], None, ()))
             if self.mode == "full":
                 for c in ORIGIN_COMPONENTS:
                     out.append(param_factor(_UNIT[c], self.index[f"{j.name}.{c}"]))
             col, m, o = self.value_map[k]
             eps_idx = self.index[f"{j.name}.offset"]
             theta = m * Q[:, col] + o + x[eps_idx]
-            out.append((factor_matrix(self.xi[k], theta), self.xi[k], eps_idx))
-        out.append((self.C_tail, None, -1))
+            terms = [(eps_idx, None)]
+            if k in self.compliant:
+                weight = -tau[:, self.compliant[k]]
+                c_idx = self.index[f"{j.name}.compliance"]
+                theta = theta + x[c_idx] * weight
+                terms.append((c_idx, weight))
+            out.append((factor_matrix(self.xi[k], theta), self.xi[k], tuple(terms)))
+        out.append((self.C_tail, None, ()))
         tool_comps = ("x", "y", "z") if self.measure == "position" else ORIGIN_COMPONENTS
         if self.tool_mode == "estimate":
             for c in tool_comps:
                 out.append(param_factor(_UNIT[c], self.index[f"tool.{c}"]))
         else:
-            out.append((_translation(self.point), None, -1))
+            out.append((_translation(self.point), None, ()))
         if self.measure == "pose":
-            out.append((_rotation(self.tool_rotation), None, -1))
+            out.append((_rotation(self.tool_rotation), None, ()))
         return out
 
     def predict(self, Q: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -205,14 +239,16 @@ class ErrorModel:
         N = Q.shape[0]
         T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
         cols = np.zeros((N, 6, len(x)))  # Ad(L_k) ξ_k, before moving the reference point
-        for mat, xi, idx in self._factors(Q, x):
+        for mat, xi, terms in self._factors(Q, x):
             T = T @ mat
-            if want_jacobian and xi is not None and idx >= 0:
+            if want_jacobian and terms:
                 R, t = T[:, :3, :3], T[:, :3, 3]
                 w_s = R @ xi[3:]
                 v_s = R @ xi[:3] + np.cross(t, w_s)
-                cols[:, :3, idx] += v_s
-                cols[:, 3:, idx] += w_s
+                for idx, weight in terms:
+                    w = 1.0 if weight is None else weight[:, None]
+                    cols[:, :3, idx] += v_s * w
+                    cols[:, 3:, idx] += w_s * w
         if not want_jacobian:
             return T, None
         p = T[:, :3, 3]

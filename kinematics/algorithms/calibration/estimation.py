@@ -35,6 +35,8 @@ from ...io.urdf import parse_urdf
 from ...model.robot import RobotModel
 from ...spatial.transforms import make_transform
 from ...tolerances import MAX_ABS_COORDINATE
+from .compliance import Compliance
+from .prior import Prior
 from .errors_model import ErrorModel
 from .identification import identify, residual_and_jacobian, singular_values
 from .urdf_out import corrected_urdf
@@ -94,10 +96,24 @@ class Calibration:
     x: np.ndarray = field(default=None, repr=False)
     error_model: ErrorModel = field(default=None, repr=False)
     verification: object = None  # set by the use case when asked (a kinematics.Verification)
+    markers: np.ndarray | None = None  # several markers measured: their points (M, 3) on the link
 
     @property
     def urdf(self) -> str:
         return self.model.urdf
+
+    def predict(self, q) -> np.ndarray:
+        """The calibrated poses ``T_device_tool`` (N, 4, 4) at configurations q (N, dof): the device's
+        view of the marker (its translation) or tool, joint compliance included (which the
+        calibrated URDF cannot hold)."""
+        return self.error_model.predict(np.atleast_2d(np.asarray(q, dtype=float)), self.x)
+
+    def predict_markers(self, q) -> np.ndarray:
+        """Where the device will see each marker (N, M, 3) at configurations q, several markers measured."""
+        if self.markers is None:
+            raise CalibrationError("this calibration was not fitted on several markers")
+        T = self.predict(q) @ np.linalg.inv(self.tool)  # T_device_link: the markers are points on the link
+        return np.einsum("nij,mj->nmi", T[:, :3, :3], self.markers) + T[:, None, :3, 3]
 
 
 #: the largest correction of one parameter a calibration answers (metres or radians): more is a fit
@@ -204,17 +220,49 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
 def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **options) -> Calibration:
     """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
     (the options: :func:`_calibrate`). A numerical breakdown on degenerate data (a linear-algebra
-    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure."""
+    routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure.
+
+    Several markers fixed to the link, measured together: ``positions`` (N, M, 3), M >= 3 not on a
+    line. They are one rigid body: their shape is their mean constellation (generalised Procrustes),
+    each measurement the body's pose (Kabsch), fitted as poses whose radian weighs the body's RMS
+    radius -- the residual of its points -- (``rotation_weight`` is set so); ``markers`` of the
+    answer holds their points on the link, :meth:`Calibration.predict_markers` where they will be seen."""
     try:
+        if positions is not None and np.ndim(positions) == 3:
+            shape, poses_, radius = markers_as_poses(np.asarray(positions, dtype=float))
+            cal = _calibrate(model, link, q, None, poses_, **{**options, "rotation_weight": radius})
+            cal.markers = shape @ cal.tool[:3, :3].T + cal.tool[:3, 3]
+            return cal
         return _calibrate(model, link, q, positions, poses, **options)
     except np.linalg.LinAlgError as exc:
         raise CalibrationError(f"the measurements are degenerate: the fit broke down ({exc})") from None
 
 
+def markers_as_poses(P: np.ndarray, iterations: int = 5) -> tuple[np.ndarray, np.ndarray, float]:
+    """Several markers of one rigid body measured together (N, M, 3): their shape (M, 3) about its
+    centroid (the mean constellation, generalised Procrustes from the first measurement's axes), the
+    body's pose (N, 4, 4) at each measurement, and the shape's RMS radius (m)."""
+    if P.ndim != 3 or P.shape[2] != 3 or P.shape[1] < 3:
+        raise CalibrationError(f"several markers: expected positions of shape (N, M, 3) with M >= 3, got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise CalibrationError("several markers: a measured position has a non-finite value (NaN or inf)")
+    shape = P[0] - P[0].mean(axis=0)
+    if np.linalg.svd(shape, compute_uv=False)[1] < 1e-6:
+        raise CalibrationError("several markers: the markers are on a line; they do not give the body's orientation")
+    for _ in range(iterations):
+        T = np.array([kabsch(shape, p) for p in P])
+        local = np.einsum("nji,nmj->nmi", T[:, :3, :3], P - T[:, None, :3, 3])  # each measurement in the body frame
+        shape = local.mean(axis=0)
+        shape -= shape.mean(axis=0)
+    T = np.array([kabsch(shape, p) for p in P])
+    return shape, T, float(np.sqrt(np.mean(np.sum(shape ** 2, axis=1))))
+
+
 def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
               parameters: str = "full", base="estimate", tool: str = "estimate", loss: str = "linear",
               holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
-              name: str | None = None) -> Calibration:
+              name: str | None = None, compliance: Compliance | None = None,
+              prior: Prior | None = None) -> Calibration:
     """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4).
 
     Args:
@@ -226,6 +274,12 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         loss: ``"linear"`` or ``"huber"``. holdout: the fraction of measurements kept out of the fit.
         rotation_weight: metres per radian of a rotation residual (poses).
         name: the calibrated robot's name (default ``<name>_calibrated``).
+        compliance: a :class:`~.compliance.Compliance` to estimate joint compliance under gravity too
+            (its values are among ``parameters``, ``<joint>.compliance``; the calibrated URDF, which
+            cannot say it, holds the geometric corrections only).
+        prior: a :class:`~.prior.Prior`: the joint parameters estimated by maximum a posteriori (every
+            one fitted, the prior holding those the data do not determine near nominal) after the plain
+            fit of the identifiable combinations; None: the plain fit.
     """
     model.link_indices([link])
     if parameters not in ("full", "joint_offsets"):
@@ -276,7 +330,7 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         link_R = B0[:3, :3] @ (nominal[fit, :3, :3] @ T_tool0[:3, :3].T)
         tool_rotation = _project_rotation(np.sum(np.swapaxes(link_R, 1, 2) @ data[fit, :3, :3], axis=0))
     em = ErrorModel(model, link, measure, parameters, base_mode, tool, R0=B0[:3, :3], t0=B0[:3, 3],
-                    point=T_tool0[:3, 3], tool_rotation=tool_rotation)
+                    point=T_tool0[:3, 3], tool_rotation=tool_rotation, compliance=compliance)
     x0 = em.x0.copy()
     meas_fit = data[fit]
     d = 3 if measure == "position" else 6
@@ -322,7 +376,17 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, z, rotation_weight, "linear", 1.0)
     nfev += n
     x = _full(x0, sel, z)
-    if not np.all(np.isfinite(x)) or np.max(np.abs(x - x0)) > MAX_CORRECTION:
+    identified, prior_w = sel, None
+    if prior is not None:  # MAP from the plain fit: every parameter, the joints' held by the prior
+        r = _residuals(em, Q[fit][inliers], meas_fit[inliers], x, rotation_weight).reshape(-1)
+        noise = prior.noise if prior.noise is not None else np.sqrt(float(r @ r) / max(len(r) - len(sel), 1))
+        prior_w = noise * prior.weights(em)
+        sel = np.arange(len(x0))
+        z, n, status = _solve(em, Q[fit][inliers], meas_fit[inliers], x0, sel, x.copy(), rotation_weight, "linear",
+                              1.0, prior_w)
+        nfev += n
+        x = z
+    if not np.all(np.isfinite(x)) or np.max(np.abs(em.corrections(Q[fit], x - x0))) > MAX_CORRECTION:
         raise CalibrationError(f"the fit diverged (a parameter moved by more than {MAX_CORRECTION:g} m or rad): the "
                                "measurements do not fit this model and link; with base 'fixed' they must be given "
                                "in the root frame, and with a point guess the marker must be on that link")
@@ -334,14 +398,21 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
         bound = _robust_sigma(rr) ** 2 * chi2.ppf(1 - OUTLIER_PROBABILITY, d)
         outliers_fit = np.flatnonzero(np.sum(rr * rr, axis=1) > bound)
 
-    # 5. statistics
-    dof_res = max(len(r) - len(sel), 1)
-    s2 = float(r @ r) / dof_res
-    sv, Vt = singular_values(Js, vectors=True)
+    # 5. statistics (with a prior: the posterior's, the noise its s)
+    if prior_w is None:
+        s2 = float(r @ r) / max(len(r) - len(sel), 1)
+        sv, Vt = singular_values(Js, vectors=True)
+    else:
+        s2 = noise ** 2
+        penalised = np.flatnonzero(prior_w > 0)
+        rows = np.zeros((len(penalised), len(sel)))
+        rows[np.arange(len(penalised)), penalised] = prior_w[penalised]
+        sv, Vt = singular_values(np.vstack([Js, rows]), vectors=True)
     cov = (Vt.T / sv ** 2) @ Vt * s2
     sigma = np.sqrt(np.diag(cov))
-    norms = np.linalg.norm(Js, axis=0)
-    sv_eq = singular_values(Js / np.where(norms > 0, norms, 1.0))
+    Jid = Js[:, np.searchsorted(sel, identified)]  # the condition of what the data determine
+    norms = np.linalg.norm(Jid, axis=0)
+    sv_eq = singular_values(Jid / np.where(norms > 0, norms, 1.0))
     cond = float(sv_eq[0] / sv_eq[-1]) if sv_eq[-1] > 0 else float("inf")
     params = [{"name": em.names[i], "value": float(x[i]), "sigma": float(sigma[k])} for k, i in enumerate(sel)]
 
@@ -392,15 +463,24 @@ def _robust_sigma(r: np.ndarray) -> float:
     return max(1.4826 * float(np.median(np.abs(r - np.median(r, axis=0)))), 1e-12)
 
 
-def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale):
+def _solve(em, Q, meas, x0, sel, z0, w, loss, f_scale, prior_w=None):
+    """The parameters ``sel`` fitted from ``z0`` (the others held at ``x0``); ``prior_w`` (p,): rows
+    ``prior_w_i (x_i - x0_i)`` appended for the parameters of positive weight (a Gaussian prior)."""
+    pw = None if prior_w is None else prior_w[sel]
+    pen = np.array([], dtype=np.intp) if pw is None else np.flatnonzero(pw > 0)
+    prior_rows = np.zeros((len(pen), len(sel)))
+    prior_rows[np.arange(len(pen)), pen] = [] if pw is None else pw[pen]
+
     def fun(z):
         cancel.check()  # a cancelled or timed-out request stops here (kinematics.engine.cancel)
-        return _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
+        r = _residuals(em, Q, meas, _full(x0, sel, z), w).reshape(-1)
+        return r if pw is None else np.concatenate([r, pw[pen] * (z[pen] - x0[sel][pen])])
 
     def jac(z):
         cancel.check()  # the Jacobian of every measurement is the larger part of each step
         _, J = residual_and_jacobian(em, Q, _full(x0, sel, z), meas, w)
-        return J.reshape(-1, len(x0))[:, sel]
+        J = J.reshape(-1, len(x0))[:, sel]
+        return J if pw is None else np.vstack([J, prior_rows])
 
     method = "lm" if loss == "linear" else "trf"
     try:

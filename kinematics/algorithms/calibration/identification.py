@@ -86,12 +86,13 @@ class Identification:
 
 def preference_tiers(em: ErrorModel) -> list[list[int]]:
     """Parameter indices in tiers of preference as representatives: the base, the tool, the zero
-    offsets, then each joint's origin from the last joint to the first."""
+    offsets, the compliances (if any), then each joint's origin from the last joint to the first."""
     ps = em.parameters
     tiers = [[i for i, p in enumerate(ps) if p.group == "base"], [i for i, p in enumerate(ps) if p.group == "tool"],
-             [i for i, p in enumerate(ps) if p.component == "offset"]]
+             [i for i, p in enumerate(ps) if p.component == "offset"],
+             [i for i, p in enumerate(ps) if p.component == "compliance"]]
     for k in reversed(range(len(em.joints))):
-        tiers.append([i for i, p in enumerate(ps) if p.joint_index == k and p.component != "offset"])
+        tiers.append([i for i, p in enumerate(ps) if p.joint_index == k and p.component not in ("offset", "compliance")])
     return [t for t in tiers if t]
 
 
