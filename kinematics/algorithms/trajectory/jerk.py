@@ -21,8 +21,9 @@ arithmetic, the intervals that may hold the peak split until the bound is within
 :data:`BOUND_TOLERANCE` of a value the motion takes), so every limit holds at every instant, not
 only at samples. The tool's speed, where limited, is sampled (its Jacobian has no such bound
 here) and held below ``1 - TOOL_MARGIN``. The acceleration fraction given to the time-optimal
-profile and the filter length are searched over a small set (:data:`FRACTIONS`, :data:`WIDTHS`),
-the shortest result kept.
+profile and the filter length are searched over a small grid (:data:`FRACTIONS`, :data:`WIDTHS`)
+and around its best (:data:`REFINE`), the shortest result kept; a candidate whose values at its
+breakpoints already need a longer motion than the best is dropped before its bound is computed.
 """
 
 from __future__ import annotations
@@ -35,11 +36,14 @@ from ...engine.cancel import check
 from .path import PiecewisePath, poly_derivative, poly_range
 from .topp import LIMIT_MARGIN, Profile, ToolRate, joint_motion, topp
 
-#: fractions of the acceleration limits the time-optimal profile is given before filtering
-FRACTIONS = (0.3, 0.45, 0.6, 0.75, 0.9)
+#: fractions of the acceleration limits the time-optimal profile is given before filtering (over 1:
+#: the scaling slows it down again; it may still end shorter)
+FRACTIONS = (0.45, 0.6, 0.75, 0.9, 1.0, 1.15, 1.3, 1.5, 1.75)
 #: filter lengths, as multiples of ``max_j 2 fraction a_j / j_j`` (the time a joint's acceleration
 #: takes to swing through its range at its jerk limit)
-WIDTHS = (0.5, 0.75, 1.0, 1.5)
+WIDTHS = (0.25, 0.5, 0.75, 1.0, 1.5)
+#: factors of the best fraction and width tried around them after the grid
+REFINE = ((0.93, 1.0, 1.07), (0.8, 1.0, 1.25))
 #: the tool's sampled speed is held below ``1 - TOOL_MARGIN`` of its limit (the motion between samples)
 TOOL_MARGIN = 2e-3
 #: uniform samples of the motion where the tool's speed is checked (its breakpoints are added)
@@ -203,17 +207,28 @@ def required_scale(path: PiecewisePath, f: FilteredProfile, velocity, accelerati
 def jerk_limited(path: PiecewisePath, velocity, acceleration, jerk, n: int = 1000,
                  tool: ToolRate | None = None) -> FilteredProfile:
     """The shortest of the filtered, time-scaled profiles of ``path`` (from rest to rest) over the
-    searched acceleration fractions and filter lengths (see the module's text)."""
+    searched acceleration fractions and filter lengths (see the module's text): the grid
+    :data:`FRACTIONS` x :data:`WIDTHS`, then the neighbours of the best (:data:`REFINE`)."""
     velocity, acceleration, jerk = (np.asarray(v, dtype=float) for v in (velocity, acceleration, jerk))
+    bases: dict[float, Profile] = {}
     best = None
+
+    def consider(fraction: float, width: float) -> None:
+        nonlocal best
+        if fraction not in bases:
+            check()
+            bases[fraction] = topp(path, velocity, acceleration * fraction, n, tool)
+        f = FilteredProfile(bases[fraction], width * float(np.max(2 * fraction * acceleration / jerk)))
+        ceiling = np.inf if best is None else best[0].duration / f.duration
+        f = FilteredProfile(f.base, f.tau, required_scale(path, f, velocity, acceleration, jerk, tool, ceiling))
+        if best is None or f.duration < best[0].duration:
+            best = (f, fraction, width)
+
     for fraction in FRACTIONS:
-        check()
-        base = topp(path, velocity, acceleration * fraction, n, tool)
-        unit = float(np.max(2 * fraction * acceleration / jerk))
         for width in WIDTHS:
-            f = FilteredProfile(base, unit * width)
-            ceiling = np.inf if best is None else best.duration / f.duration
-            f = FilteredProfile(base, f.tau, required_scale(path, f, velocity, acceleration, jerk, tool, ceiling))
-            if best is None or f.duration < best.duration:
-                best = f
-    return best
+            consider(fraction, width)
+    _, fraction, width = best
+    for df in REFINE[0]:
+        for dw in REFINE[1]:
+            consider(fraction * df, width * dw)
+    return best[0]
