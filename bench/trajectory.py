@@ -91,7 +91,9 @@ def time_optimal_table(report: Report, problems, title: str) -> None:
 
     ta.setup_logging("WARNING")
     rows = {}
-    for rid, W, v, a in problems:
+    for done, (rid, W, v, a) in enumerate(problems):
+        if done and done % 100 == 0:
+            print(f"  {done} of {len(problems)} paths", file=sys.stderr, flush=True)
         r = rows.setdefault(rid, {"n": 0, "ok": 0, "ok_ta": 0, "ratio": [], "viol": 0, "viol_ta": 0, "t": [],
                                   "t_ta": [], "worst": [], "worst_ta": []})
         r["n"] += 1
@@ -225,6 +227,8 @@ def run(report: Report, quick: bool = False, paths: int | None = None) -> None:
 if __name__ == "__main__":
     import argparse
 
+    from threadpoolctl import threadpool_limits
+
     from .common import machine_info
     from .run_all import write_report
 
@@ -233,12 +237,12 @@ if __name__ == "__main__":
     p.add_argument("--paths", type=int, default=None, help="how many random paths (default 1000, 60 with --quick)")
     p.add_argument("--output", help="write the tables to this file (with the machine and the command)")
     args = p.parse_args()
-    header = machine_info()
-    print(header, flush=True)
-    t0 = CLOCK()
     wall0 = os.times().elapsed
     report = Report()
-    run(report, quick=args.quick, paths=args.paths)
+    with threadpool_limits(limits=1, user_api="blas"):  # as run_all: single-threaded, like TOPP-RA
+        header = machine_info()
+        print(header, flush=True)
+        run(report, quick=args.quick, paths=args.paths)
     elapsed = os.times().elapsed - wall0
     report.add("Machine load", f"load average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())} "
                                f"(2 cores shared with other work); the run took {elapsed:.0f} s of wall time.")
