@@ -21,8 +21,9 @@ arithmetic, the intervals that may hold the peak split until the bound is within
 :data:`BOUND_TOLERANCE` of a value the motion takes), so every limit holds at every instant, not
 only at samples. The tool's speed, where limited, is sampled (its Jacobian has no such bound
 here) and held below ``1 - TOOL_MARGIN``. The acceleration fraction given to the time-optimal
-profile and the filter length are searched over a small grid (:data:`FRACTIONS`, :data:`WIDTHS`)
-and around its best (:data:`REFINE`), the shortest result kept; a candidate whose values at its
+profile, the filter length and a cap of the profile's velocity are searched over a small grid
+(:data:`FRACTIONS`, :data:`WIDTHS`, :data:`VELOCITY_CAPS`) and around its best (:data:`REFINE`),
+the shortest result kept; a candidate whose values at its
 breakpoints already need a longer motion than the best is dropped before its bound is computed.
 """
 
@@ -43,7 +44,12 @@ FRACTIONS = (0.45, 0.6, 0.75, 0.9, 1.0, 1.15, 1.3, 1.5, 1.75)
 #: takes to swing through its range at its jerk limit)
 WIDTHS = (0.25, 0.5, 0.75, 1.0, 1.5)
 #: factors of the best fraction and width tried around them after the grid
-REFINE = ((0.93, 1.0, 1.07), (0.8, 1.0, 1.25))
+REFINE = ((0.93, 1.0, 1.07), (0.8, 1.0, 1.25), (0.93, 1.07))
+#: fractions of the velocity limits tried as the time-optimal profile's own velocity limit: a plateau
+#: of path speed between speeding up and slowing down lets the filter be short (one at
+#: :data:`CAP_WIDTH`: the filter is then as long as the acceleration takes to rise at the jerk limit)
+VELOCITY_CAPS = (0.9, 0.8, 0.7, 0.6)
+CAP_WIDTH = 0.5
 #: the tool's sampled speed is held below ``1 - TOOL_MARGIN`` of its limit (the motion between samples)
 TOOL_MARGIN = 2e-3
 #: uniform samples of the motion where the tool's speed is checked (its breakpoints are added)
@@ -207,28 +213,36 @@ def required_scale(path: PiecewisePath, f: FilteredProfile, velocity, accelerati
 def jerk_limited(path: PiecewisePath, velocity, acceleration, jerk, n: int = 1000,
                  tool: ToolRate | None = None) -> FilteredProfile:
     """The shortest of the filtered, time-scaled profiles of ``path`` (from rest to rest) over the
-    searched acceleration fractions and filter lengths (see the module's text): the grid
-    :data:`FRACTIONS` x :data:`WIDTHS`, then the neighbours of the best (:data:`REFINE`)."""
+    searched acceleration fractions, filter lengths and velocity caps (see the module's text): the
+    grid :data:`FRACTIONS` x :data:`WIDTHS`, then the best with :data:`VELOCITY_CAPS`, then the
+    neighbours of the best (:data:`REFINE`)."""
     velocity, acceleration, jerk = (np.asarray(v, dtype=float) for v in (velocity, acceleration, jerk))
-    bases: dict[float, Profile] = {}
+    bases: dict[tuple[float, float], Profile] = {}
     best = None
 
-    def consider(fraction: float, width: float) -> None:
+    def consider(fraction: float, width: float, cap: float = 1.0) -> None:
         nonlocal best
-        if fraction not in bases:
+        cap = min(cap, 1.0)
+        if (fraction, cap) not in bases:
             check()
-            bases[fraction] = topp(path, velocity, acceleration * fraction, n, tool)
-        f = FilteredProfile(bases[fraction], width * float(np.max(2 * fraction * acceleration / jerk)))
+            bases[fraction, cap] = topp(path, velocity * cap, acceleration * fraction, n, tool)
+        f = FilteredProfile(bases[fraction, cap], width * float(np.max(2 * fraction * acceleration / jerk)))
         ceiling = np.inf if best is None else best[0].duration / f.duration
         f = FilteredProfile(f.base, f.tau, required_scale(path, f, velocity, acceleration, jerk, tool, ceiling))
         if best is None or f.duration < best[0].duration:
-            best = (f, fraction, width)
+            best = (f, fraction, width, cap)
 
     for fraction in FRACTIONS:
         for width in WIDTHS:
             consider(fraction, width)
-    _, fraction, width = best
+    _, fraction, width, _ = best
+    for cap in VELOCITY_CAPS:
+        for w in sorted({CAP_WIDTH, width}):
+            consider(fraction, w, cap)
+    _, fraction, width, cap = best
     for df in REFINE[0]:
         for dw in REFINE[1]:
-            consider(fraction * df, width * dw)
+            consider(fraction * df, width * dw, cap)
+    for dc in REFINE[2]:
+        consider(fraction, width, cap * dc)
     return best[0]
