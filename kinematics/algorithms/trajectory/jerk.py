@@ -210,12 +210,24 @@ def required_scale(path: PiecewisePath, f: FilteredProfile, velocity, accelerati
     return float(k) / (1.0 - LIMIT_MARGIN)
 
 
+def refine(consider, around) -> None:
+    """``consider`` the neighbours of ``around`` = ``(fraction, width, cap)`` (:data:`REFINE`)."""
+    fraction, width, cap = around
+    for df in REFINE[0]:
+        for dw in REFINE[1]:
+            if df != 1.0 or dw != 1.0:
+                consider(fraction * df, width * dw, cap)
+    for dc in REFINE[2]:
+        if min(cap * dc, 1.0) != cap:
+            consider(fraction, width, cap * dc)
+
+
 def jerk_limited(path: PiecewisePath, velocity, acceleration, jerk, n: int = 1000,
                  tool: ToolRate | None = None) -> FilteredProfile:
     """The shortest of the filtered, time-scaled profiles of ``path`` (from rest to rest) over the
     searched acceleration fractions, filter lengths and velocity caps (see the module's text): the
-    grid :data:`FRACTIONS` x :data:`WIDTHS`, then the best with :data:`VELOCITY_CAPS`, then the
-    neighbours of the best (:data:`REFINE`)."""
+    grid :data:`FRACTIONS` x :data:`WIDTHS` and the neighbours of its best (:data:`REFINE`), then
+    that best with :data:`VELOCITY_CAPS` and, if one of them is shorter, its neighbours."""
     velocity, acceleration, jerk = (np.asarray(v, dtype=float) for v in (velocity, acceleration, jerk))
     bases: dict[tuple[float, float], Profile] = {}
     best = None
@@ -235,14 +247,11 @@ def jerk_limited(path: PiecewisePath, velocity, acceleration, jerk, n: int = 100
     for fraction in FRACTIONS:
         for width in WIDTHS:
             consider(fraction, width)
+    refine(consider, best[1:])
     _, fraction, width, _ = best
     for cap in VELOCITY_CAPS:
         for w in sorted({CAP_WIDTH, width}):
             consider(fraction, w, cap)
-    _, fraction, width, cap = best
-    for df in REFINE[0]:
-        for dw in REFINE[1]:
-            consider(fraction * df, width * dw, cap)
-    for dc in REFINE[2]:
-        consider(fraction, width, cap * dc)
+    if best[3] != 1.0:  # a cap made it shorter: around it too
+        refine(consider, best[1:])
     return best[0]
