@@ -143,3 +143,32 @@ def test_tool_speed_held_judged_from_fk_of_the_returned_q(api_client, ur5, jerk)
     speed = np.linalg.norm(np.diff(p, axis=0), axis=1) * BODY["rate"]
     assert speed.max() <= 0.3 * (1 + SLACK)
     assert speed.max() > 0.29  # the tool speed is what limits this path
+
+
+def test_seven_joint_arm_from_an_ik_path_answer(api_client):
+    # end to end: a Panda's Cartesian path solved by /ik/path, its rows timed jerk-limited
+    from kinematics.engine.poe import compile_model
+    from kinematics.io import default_catalogue
+
+    panda = default_catalogue().get("panda")
+    q0 = [0.1, -0.4, 0.2, -2.0, 0.3, 1.5, 0.7, 0.02]
+    T0 = compile_model(panda).fk(np.atleast_2d(q0), ["panda_link8"])[0, 0]
+    T1 = T0.copy()
+    T1[:3, 3] += [0.1, -0.05, 0.08]
+    r = api_client.post("/models/panda/ik/path", json={"link": "panda_link8", "waypoints": [T0.tolist(), T1.tolist()],
+                                                        "seed": q0, "step": {"position": 0.02}})
+    assert r.status_code == 200, r.text
+    path = r.json()
+    assert path["complete"] and len(path["q"][0]) == 8 and len(path["q"]) >= 5  # 7 arm joints and the finger
+    limits = {"velocity": 1.0, "acceleration": 3.0, "jerk": 30.0}
+    r = api_client.post("/models/panda/trajectory", json={"waypoints": path["q"], "limits": limits, "rate": 1000})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["joint_names"] == path["joint_names"] and body["duration"] > body["optimal_duration"]
+    t, q, qd, qdd = (np.array(body[k]) for k in ("t", "q", "qd", "qdd"))
+    np.testing.assert_allclose(q[[0, -1]], np.array(path["q"])[[0, -1]], atol=1e-9)
+    h = t[1] - t[0]
+    for k, limit in enumerate((1.0, 3.0, 30.0), start=1):
+        assert np.max(np.abs(np.diff(q[:-1], k, axis=0))) / h**k <= limit * (1 + SLACK)
+    assert np.max(np.abs(qd)) <= 1 + SLACK and np.max(np.abs(qdd)) <= 3 * (1 + SLACK)
+    assert np.abs(qdd[[0, -1]]).max() < 1e-9 and np.abs(qd[[0, -1]]).max() < 1e-9

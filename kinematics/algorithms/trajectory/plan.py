@@ -19,7 +19,8 @@ TOOL_RETRIES = 3
 TOOL_CHECK_SAMPLES = 4000
 #: ``method`` of the answers
 TIME_OPTIMAL = "time-optimal reachability (piecewise-constant path acceleration, interval-bounded constraints)"
-JERK_LIMITED = "jerk-limited (FIR-filtered time-optimal profile, time-scaled to the tightest limit)"
+JERK_LIMITED = ("jerk-limited (FIR-filtered time-optimal profile, time-scaled to proven bounds of velocity, "
+                "acceleration and jerk over whole intervals)")
 
 
 @dataclass(frozen=True, eq=False)
