@@ -97,11 +97,6 @@ async def calibrate(model_id: ModelId, body: Annotated[tuple, Depends(read_calib
     return await execute(request, _calibrate, model_id, req, csv, registry, settings)
 
 
-def _option(value):
-    """A request's option (true, false, null or its fields) as the use case takes it."""
-    return value.model_dump() if hasattr(value, "model_dump") else value
-
-
 def _calibrate(model_id: str, req: CalibrationRequest, csv: bytes | None, registry, settings):
     rec = registry.get(model_id)
     query = req.to_query(rec.model, budget(settings), base=None, tool=None)
@@ -109,10 +104,7 @@ def _calibrate(model_id: str, req: CalibrationRequest, csv: bytes | None, regist
     if req.measurements is not None:
         measurements = [{k: v for k, v in m.items() if v is not None} for m in
                         (m if isinstance(m, dict) else m.model_dump() for m in req.measurements)]
-    cal = usecases.calibrate(query, measurements, csv=csv, parameters=req.parameters, base=req.base, tool=req.tool,
-                             loss=req.loss, holdout=req.holdout, random_seed=req.random_seed,
-                             rotation_weight=req.rotation_weight, name=req.name,
-                             compliance=_option(req.compliance), prior=_option(req.prior))
+    cal = usecases.calibrate(query, measurements, csv=csv, name=req.name, **req.fit_fields())
     new, _ = registry.add_urdf(cal.urdf.encode("utf-8"), name=cal.model.name)
     out = {
         "model": new.id, "from": rec.id, "link": cal.link, "measure": cal.measure, "base": pose_record(cal.base),

@@ -80,6 +80,15 @@ class CalibrationRequest(ToQuery, BaseModel):
     verify: Flag = Field(default=False, description="also compare the calibrated model's FK with Pinocchio's on the "
                                                     "measured configurations (verification)")
 
+    def fit_fields(self) -> dict:
+        """How the fit goes, as the use case's keywords (it builds its FitOptions once from them)."""
+        fields = {k: getattr(self, k) for k in ("parameters", "base", "tool", "loss", "holdout", "random_seed",
+                                                "rotation_weight", "compliance", "prior")}
+        for key in ("compliance", "prior"):  # true, false, null or the option's fields
+            value = fields[key]
+            fields[key] = value.model_dump() if hasattr(value, "model_dump") else value
+        return fields
+
 
 class CalibrationParameter(BaseModel):
     name: str = Field(examples=["elbow_joint.offset"])

@@ -95,10 +95,10 @@ def run_calibrate(args) -> int:
         text = sys.stdin.read() if args.measurements == "-" else open(args.measurements, "rb").read()
     except OSError as exc:
         return fail("calibrate", f"{args.measurements}: {exc.strerror}", EXIT_USAGE)
-    cal = usecases.calibrate(query, csv=text, parameters=args.parameters,
-                             base=args.base, tool=args.tool, loss=args.loss, holdout=args.holdout,
-                             random_seed=args.seed, rotation_weight=args.rotation_weight, name=args.name,
-                             compliance=_compliance(args.compliance), prior=args.prior)
+    fit = {"parameters": args.parameters, "base": args.base, "tool": args.tool, "loss": args.loss,
+           "holdout": args.holdout, "random_seed": args.seed, "rotation_weight": args.rotation_weight,
+           "compliance": _compliance(args.compliance), "prior": args.prior}  # the use case builds FitOptions once
+    cal = usecases.calibrate(query, csv=text, name=args.name, **fit)
     print(report(cal, model.name))
     if args.output:
         _write(args.output, cal.urdf.encode("utf-8"))

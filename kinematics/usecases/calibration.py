@@ -76,14 +76,18 @@ def _calibration_query(query: Query) -> tuple[RobotModel, str]:
     return model, link
 
 
+#: the fields of :class:`~kinematics.algorithms.calibration.FitOptions`, given to :func:`calibrate` as keywords
+FIT_FIELDS = ("parameters", "base", "tool", "loss", "holdout", "random_seed", "rotation_weight", "compliance", "prior")
+
+
 def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str | bytes | None = None,
-              parameters: str = "full", base: Any = "estimate", tool: str = "estimate", loss: str = "linear",
-              holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0, name: str | None = None,
-              compliance=None, prior=None, **options: Any):
+              fit=None, name: str | None = None, **options: Any):
     """Calibrate the query's ``link`` from measurements (see :func:`calibration_measurements`):
     a :class:`~kinematics.algorithms.calibration.Calibration` whose ``model`` is the calibrated model,
     ``base`` its ``T_device_root`` and ``point`` / ``tool`` the marker / tool on the link.
 
+    How it fits is ``fit`` (:class:`~kinematics.algorithms.calibration.FitOptions`, built once) or
+    its fields as keywords (:data:`FIT_FIELDS`; the other keywords are the query's):
     ``base``: ``"estimate"`` (no guess needed), ``"fixed"`` (the device frame is the root frame) or a
     pose ``T_device_root`` (held there); ``tool``: ``"estimate"`` or ``"fixed"`` (at the query's
     ``point`` / ``tool``); ``parameters``: ``"full"`` or ``"joint_offsets"``; ``loss``: ``"linear"`` or
@@ -94,22 +98,24 @@ def calibrate(query: Query | RobotModel, measurements: Any = None, *, csv: str |
     parameters); either may be given as ``True`` (the defaults) or a map of its fields (a request's JSON). With the query's ``verify``, the
     calibrated model's FK is compared with Pinocchio's on the measured configurations
     (``verification`` of the answer)."""
-    from ..algorithms.calibration import Compliance, Prior
+    from ..algorithms.calibration import Compliance, FitOptions, Prior
     from ..algorithms.calibration import calibrate as _calibrate
 
-    compliance, prior = _option(Compliance, compliance, "compliance"), _option(Prior, prior, "prior")
+    fields = {k: options.pop(k) for k in FIT_FIELDS if k in options}
+    for key, cls in (("compliance", Compliance), ("prior", Prior)):
+        if key in fields:
+            fields[key] = _option(cls, fields[key], key)
+    if not isinstance(fields.get("base", "estimate"), str):
+        fields["base"] = base_poses(fields["base"], 1)[0]
+    fit, _ = FitOptions.split(fit, fields)
 
     query = Query.of(query, **options)
     model, link = _calibration_query(query)
     Q, P, T = calibration_measurements(query, measurements, csv=csv)
-    if not isinstance(base, str):
-        base = base_poses(base, 1)[0]
     T_tool = query.T_tool
     guess = None if T_tool is None else T_tool[:3, 3]
     cal = _calibrate(model, link, Q, positions=P, poses=T, point=guess,
-                     tool_guess=T_tool if T is not None else None, parameters=parameters, base=base, tool=tool,
-                     loss=loss, holdout=holdout, random_seed=random_seed, rotation_weight=rotation_weight, name=name,
-                     compliance=compliance, prior=prior)
+                     tool_guess=T_tool if T is not None else None, fit=fit, name=name)
     if query.verify:
         from ..verify.pinocchio import REFERENCE_NAME, compare_fk
         from .query import Verification

@@ -20,8 +20,8 @@ except ImportError as exc:  # the `calibration` extra
     raise MissingExtraError.of("calibration", "kinematic calibration", "scipy") from exc
 
 from .compliance import Compliance
-from .estimation import Calibration, calibrate
+from .estimation import Calibration, FitOptions, calibrate
 from .poses import PoseChoice, select_poses
 from .prior import Prior
 
-__all__ = ["Calibration", "Compliance", "PoseChoice", "Prior", "calibrate", "select_poses"]
+__all__ = ["Calibration", "Compliance", "FitOptions", "PoseChoice", "Prior", "calibrate", "select_poses"]

@@ -22,7 +22,9 @@ on it, in the device's frame -- at joint values Q (N, dof):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -43,6 +45,66 @@ from .urdf_out import corrected_urdf
 
 #: false-alarm probability of the outlier test, per measurement
 OUTLIER_PROBABILITY = 1e-4
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How a calibration fits, validated when built (a bad field is a :class:`CalibrationError` naming it):
+
+    - ``parameters``: ``"full"`` (joint origins and zeros) or ``"joint_offsets"`` (zeros only);
+    - ``base``: ``"estimate"``, ``"fixed"`` (the device frame is the root frame) or a fixed pose
+      ``T_device_root`` (4, 4); ``tool``: ``"estimate"`` or ``"fixed"`` (at its guess);
+    - ``loss``: ``"linear"`` or ``"huber"``; ``holdout``: the fraction of measurements kept out of the
+      fit, drawn with ``random_seed``;
+    - ``rotation_weight``: metres per radian of a rotation residual (poses);
+    - ``compliance``: a :class:`~.compliance.Compliance` to estimate joint compliance under gravity
+      too (its values are among the parameters, ``<joint>.compliance``; the calibrated URDF, which
+      cannot say it, holds the geometric corrections only);
+    - ``prior``: a :class:`~.prior.Prior`: the joint parameters estimated by maximum a posteriori
+      (every one fitted, the prior holding those the data do not determine near nominal) after the
+      plain fit of the identifiable combinations; None: the plain fit.
+
+    >>> FitOptions(loss="cauchy")
+    Traceback (most recent call last):
+    ...
+    kinematics.errors.CalibrationError: unknown loss 'cauchy'; expected 'linear' or 'huber'
+    """
+
+    parameters: str = "full"
+    base: Any = "estimate"
+    tool: str = "estimate"
+    loss: str = "linear"
+    holdout: float = 0.0
+    random_seed: int = 0
+    rotation_weight: float = 1.0
+    compliance: Compliance | None = None
+    prior: Prior | None = None
+
+    def __post_init__(self) -> None:
+        if self.parameters not in ("full", "joint_offsets"):
+            raise CalibrationError(f"unknown parameters {self.parameters!r}; expected 'full' or 'joint_offsets'",
+                                   field="parameters")
+        if self.loss not in ("linear", "huber"):
+            raise CalibrationError(f"unknown loss {self.loss!r}; expected 'linear' or 'huber'", field="loss")
+        if self.tool not in ("estimate", "fixed"):
+            raise CalibrationError(f"unknown tool {self.tool!r}; expected 'estimate' or 'fixed'", field="tool")
+        if isinstance(self.base, str) and self.base not in ("estimate", "fixed"):
+            raise CalibrationError(f"unknown base {self.base!r}; expected 'estimate', 'fixed' or a pose", field="base")
+        if not 0.0 <= float(self.holdout) < 1.0:
+            raise CalibrationError(f"holdout must be a fraction in [0, 1), got {self.holdout}", field="holdout")
+        if not (np.isfinite(self.rotation_weight) and self.rotation_weight > 0):
+            raise CalibrationError("rotation_weight must be a positive length (metres per radian)",
+                                   field="rotation_weight")
+
+    @classmethod
+    def split(cls, fit: FitOptions | None, keywords: dict[str, Any]) -> tuple[FitOptions, dict[str, Any]]:
+        """``(fit with the keywords naming its fields applied, the other keywords)``: so that
+        ``calibrate(model, link, q, positions=P, loss="huber")`` keeps working."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        mine = {k: v for k, v in keywords.items() if k in names}
+        rest = {k: v for k, v in keywords.items() if k not in names}
+        fit = fit or cls()
+        return (dataclasses.replace(fit, **mine) if mine else fit), rest
 
 
 @dataclass
@@ -217,9 +279,11 @@ def check_measurements(model: RobotModel, q, positions=None, poses=None) -> tupl
     return Q, data, measure
 
 
-def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **options) -> Calibration:
-    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
-    (the options: :func:`_calibrate`). A numerical breakdown on degenerate data (a linear-algebra
+def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, fit: FitOptions | None = None,
+              **options) -> Calibration:
+    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4):
+    how it fits is ``fit`` (:class:`FitOptions`, or its fields as keywords: :meth:`FitOptions.split`),
+    and the other options, ``point``, ``tool_guess`` and ``name``, are :func:`_calibrate`'s. A numerical breakdown on degenerate data (a linear-algebra
     routine that does not converge) is a :class:`CalibrationError`, never an unexplained failure.
 
     Several markers fixed to the link, measured together: ``positions`` (N, M, 3), M >= 3 not on a
@@ -227,13 +291,15 @@ def calibrate(model: RobotModel, link: str, q, positions=None, poses=None, **opt
     each measurement the body's pose (Kabsch), fitted as poses whose radian weighs the body's RMS
     radius -- the residual of its points -- (``rotation_weight`` is set so); ``markers`` of the
     answer holds their points on the link, :meth:`Calibration.predict_markers` where they will be seen."""
+    fit, options = FitOptions.split(fit, options)
     try:
         if positions is not None and np.ndim(positions) == 3:
             shape, poses_, radius = markers_as_poses(np.asarray(positions, dtype=float))
-            cal = _calibrate(model, link, q, None, poses_, **{**options, "rotation_weight": radius})
+            cal = _calibrate(model, link, q, None, poses_, fit=dataclasses.replace(fit, rotation_weight=radius),
+                             **options)
             cal.markers = shape @ cal.tool[:3, :3].T + cal.tool[:3, 3]
             return cal
-        return _calibrate(model, link, q, positions, poses, **options)
+        return _calibrate(model, link, q, positions, poses, fit=fit, **options)
     except np.linalg.LinAlgError as exc:
         raise CalibrationError(f"the measurements are degenerate: the fit broke down ({exc})") from None
 
@@ -258,40 +324,20 @@ def markers_as_poses(P: np.ndarray, iterations: int = 5) -> tuple[np.ndarray, np
     return shape, T, float(np.sqrt(np.mean(np.sum(shape ** 2, axis=1))))
 
 
-def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, point=None, tool_guess=None,
-              parameters: str = "full", base="estimate", tool: str = "estimate", loss: str = "linear",
-              holdout: float = 0.0, random_seed: int = 0, rotation_weight: float = 1.0,
-              name: str | None = None, compliance: Compliance | None = None,
-              prior: Prior | None = None) -> Calibration:
-    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4).
+def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, fit: FitOptions,
+               point=None, tool_guess=None, name: str | None = None) -> Calibration:
+    """Calibrate ``model``'s chain to ``link`` from measured ``positions`` (N, 3) or ``poses`` (N, 4, 4)
+    as ``fit`` says (:class:`FitOptions`).
 
     Args:
         point: the marker point's guess on the link (3,), metres (default the link origin).
         tool_guess: the tool frame's guess ``T_link_tool`` (4, 4), poses measured (default identity).
-        parameters: ``"full"`` (joint origins and zeros) or ``"joint_offsets"`` (zeros only).
-        base: ``"estimate"``, ``"fixed"`` (the device frame is the root frame) or a fixed pose
-            ``T_device_root`` (4, 4). tool: ``"estimate"`` or ``"fixed"`` (at its guess).
-        loss: ``"linear"`` or ``"huber"``. holdout: the fraction of measurements kept out of the fit.
-        rotation_weight: metres per radian of a rotation residual (poses).
         name: the calibrated robot's name (default ``<name>_calibrated``).
-        compliance: a :class:`~.compliance.Compliance` to estimate joint compliance under gravity too
-            (its values are among ``parameters``, ``<joint>.compliance``; the calibrated URDF, which
-            cannot say it, holds the geometric corrections only).
-        prior: a :class:`~.prior.Prior`: the joint parameters estimated by maximum a posteriori (every
-            one fitted, the prior holding those the data do not determine near nominal) after the plain
-            fit of the identifiable combinations; None: the plain fit.
     """
     model.link_indices([link])
-    if parameters not in ("full", "joint_offsets"):
-        raise CalibrationError(f"unknown parameters {parameters!r}; expected 'full' or 'joint_offsets'", field="parameters")
-    if loss not in ("linear", "huber"):
-        raise CalibrationError(f"unknown loss {loss!r}; expected 'linear' or 'huber'", field="loss")
-    if tool not in ("estimate", "fixed"):
-        raise CalibrationError(f"unknown tool {tool!r}; expected 'estimate' or 'fixed'", field="tool")
-    if not 0.0 <= float(holdout) < 1.0:
-        raise CalibrationError(f"holdout must be a fraction in [0, 1), got {holdout}", field="holdout")
-    if not (np.isfinite(rotation_weight) and rotation_weight > 0):
-        raise CalibrationError("rotation_weight must be a positive length (metres per radian)", field="rotation_weight")
+    parameters, base, tool, loss = fit.parameters, fit.base, fit.tool, fit.loss
+    holdout, random_seed, rotation_weight = fit.holdout, fit.random_seed, fit.rotation_weight
+    compliance, prior = fit.compliance, fit.prior
     Q, data, measure = check_measurements(model, q, positions, poses)
     if not any(j.moving for j in model.path_joints(link)):
         raise CalibrationError(f"no moving joint between the root and {link!r}: nothing to calibrate", field="link")
@@ -316,10 +362,8 @@ def _calibrate(model: RobotModel, link: str, q, positions=None, poses=None, *, p
     measured_points = data if measure == "position" else data[:, :3, 3]
     if isinstance(base, str) and base == "estimate":
         base_mode, B0 = "estimate", None
-    elif isinstance(base, str) and base == "fixed":
+    elif isinstance(base, str):  # "fixed" (FitOptions refuses any other word)
         B0, base_mode = np.eye(4), "fixed"
-    elif isinstance(base, str):
-        raise CalibrationError(f"unknown base {base!r}; expected 'estimate', 'fixed' or a pose", field="base")
     else:
         B0, base_mode = np.asarray(base, dtype=float), "fixed"
     B0, p0 = register(T_link[fit], measured_points[fit], T_tool0[:3, 3], B0, estimate_point=tool == "estimate")
