@@ -101,6 +101,13 @@ def _frames_one(q, itab, ftab, fb):
                 ftab[F + 4 * r + 3] = a0 * c03 + a1 * c13 + a2 * c23 + p3 + th * zz
 
 
+@nb.njit(inline="always", **_JIT_GIL)
+def _refused(q, dof):
+    """``q`` is not a contiguous vector of ``dof`` values (the stride of a vector of one value or
+    none does not matter, and numpy gives such vectors other strides)."""
+    return q.shape[0] != dof or (dof > 1 and q.strides[0] != 8)
+
+
 def _pose_of(out, k):  # pragma: no cover - compiled only (overloaded below)
     """In compiled code: pose ``k`` of ``out``, (L', 4, 4), or ``out`` itself when it is one (4, 4)."""
 
@@ -119,7 +126,7 @@ def fk_one(itab, ftab, out, q):
     Tables as :func:`_tables` (``x`` unused, links: the plan's ``lj``, D: its (L', 4, 4) factors);
     the arithmetic of ``compiled._poses_row``, operation for operation. Refuses (returns True, writes
     nothing) a ``q`` that is not a contiguous vector of the tables' ``dof`` values."""
-    if q.shape[0] != itab[3] or q.strides[0] != 8:
+    if _refused(q, itab[3]):
         return True
     n, m = itab[0], itab[1]
     lo = _HEAD + 3 * n + m
@@ -155,7 +162,7 @@ def jacobian_one(itab, ftab, out, q):
     """The Jacobian (6, dof) of a link (as :func:`kinematics.engine.compiled.jacobian`) for one
     configuration ``q`` (dof,), into ``out`` (zeroed here first). Tables as :func:`_tables` (``x``:
     the reference code, joints: the link's path, D: its (4, 4) factor); refuses ``q`` as :func:`fk_one`."""
-    if q.shape[0] != itab[3] or q.strides[0] != 8:
+    if _refused(q, itab[3]):
         return True
     for r in range(6):
         for c in range(out.shape[1]):
