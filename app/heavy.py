@@ -181,15 +181,42 @@ def _exit_with(parent) -> None:
     os._exit(0)
 
 
-def decode_json(schema_name: str, body: bytes) -> tuple[str, Any]:
+#: the batch fields a large JSON body's items are counted in before it is decoded: the setting that
+#: bounds them, what they are, and how many containers open at a batch's first item (fewer: one item,
+#: a vector of q or a 4x4 target)
+COUNTED_FIELDS = {"q": ("max_batch", "configurations", 1), "qdot": ("max_batch", "configurations", 1),
+                  "target": ("max_batch", "targets", 2), "measurements": ("max_measurements", "measurements", 0)}
+
+
+def over_count(body: bytes, limits: dict[str, int | None]) -> tuple[str, int, str, str] | None:
+    """``(setting, n, what, field)`` of the first batch field of ``body`` whose items, counted in the
+    raw bytes (:func:`app.json_count.top_level_counts`: no decode, memory bounded), are over
+    ``limits[setting]``; None when none is."""
+    from .json_count import top_level_counts
+
+    for field, (items, depth) in top_level_counts(body, COUNTED_FIELDS).items():
+        setting, what, batch_depth = COUNTED_FIELDS[field]
+        n = items if depth >= batch_depth else 1
+        limit = limits.get(setting)
+        if limit is not None and n > limit:
+            return setting, n, what, field
+    return None
+
+
+def decode_json(schema_name: str, body: bytes, limits: dict[str, int | None] | None = None) -> tuple[str, Any]:
     """In the decoder process: ``("ok", fields)`` of ``body`` validated by ``app.schemas.<schema_name>``
     (``model_dump()``; the batch fields as float arrays when they are plain numeric batches), or
-    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them)."""
+    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them), or, before any
+    decoding, ``("too-large", (setting, n, what, field))`` when a batch field holds more items than
+    ``limits`` (settings by name) allow (:func:`over_count`)."""
     import numpy as np
     from pydantic import ValidationError
 
     from . import schemas
 
+    over = over_count(body, limits) if limits else None
+    if over is not None:
+        return "too-large", over
     try:
         data = getattr(schemas, schema_name).model_validate_json(body).model_dump()
     except ValidationError as exc:
@@ -254,16 +281,16 @@ def start_decoder(settings):
     return _decoder().submit(_warm_decoder, _warm_body())
 
 
-def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:
+def _decode_elsewhere(schema_name: str, body: bytes, limits: dict[str, int | None]) -> tuple[str, Any]:
     """:func:`decode_json` in the worker's decoder process (its own GIL), here if that process is broken."""
     from concurrent.futures.process import BrokenProcessPool
 
     try:
-        return _decoder().submit(decode_json, schema_name, body).result()
+        return _decoder().submit(decode_json, schema_name, body, limits).result()
     except BrokenProcessPool:  # killed (out of memory?): a new one next time, this body decoded here
         with _lock:
             _decoders.pop(os.getpid(), None)
-        return decode_json(schema_name, body)
+        return decode_json(schema_name, body, limits)
 
 
 async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
@@ -277,10 +304,18 @@ async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
     settings = request.app.state.settings
     if len(body) <= INLINE_BODY_BYTES:
         return schema.model_validate_json(body).model_dump()
+    limits = {"max_batch": settings.max_batch, "max_measurements": settings.max_measurements}
     if settings.decode_process_bytes and len(body) > settings.decode_process_bytes:
-        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body)
+        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body, limits)
     else:
-        status, data = await run_heavy(request, decode_json, schema.__name__, body)
+        status, data = await run_heavy(request, decode_json, schema.__name__, body, limits)
+    if status == "too-large":
+        from kinematics.errors import BudgetError
+
+        setting, n, what, field = data
+        raise BudgetError(f"{field} holds {n} {what} (counted in the body before decoding it); the limit "
+                          f"({setting}) is {limits[setting]}", budget=setting.removeprefix("max_").replace("_", "-"),
+                          field=field, limit=limits[setting])
     if status == "invalid":
         from fastapi.exceptions import RequestValidationError
 
