@@ -30,7 +30,7 @@ from .registry import Registry
 from .responses import PROBLEM_MEDIA_TYPE, FastJSONResponse
 from .schemas import REQUEST_SCHEMAS
 from .settings import Settings
-from .warm import prepare_routes, process_warm_up
+from .warm import prepare_routes, prepare_routes_in_background, process_warm_up
 
 log = logging.getLogger("app")
 
@@ -243,7 +243,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         warm_up = process_warm_up()  # every operation's compiled kernels, not on a first request (app.warm)
         warm_up.start(background=background)
         if background:  # the routes' own state too (app.warm.prepare_routes), beside the kernels
-            threading.Thread(target=prepare_routes, args=(app,), name="prepare-routes", daemon=True).start()
+            threading.Thread(target=prepare_routes_in_background, args=(app,), name="prepare-routes", daemon=True).start()
         else:
             prepare_routes(app)
         configure_process(settings)  # heavy work off the loop at a lower priority (app.heavy)
