@@ -257,4 +257,4 @@ def test_recipe_sp6_twenty_thousand_and_its_near_double_roots():
             near += 1
         contains_ikgeo(H, K, P, d1, d2, sols)
     assert worst < 1e-13
-    assert near >= 50 * RECIPE_INSTANCES // 20_000  # (77 of 20,000 with this seed; NEAR_4000 of the first 4,000)
+    assert near >= 50 * RECIPE_INSTANCES // 20_000  # (77 of 20,000 with this seed; 16 of the first 4,000)
