@@ -32,6 +32,12 @@ _HEAD = 4
 
 
 @nb.njit(inline="always", **_JIT_GIL)
+def _row(t, at):
+    """The four entries ``t[at: at + 4]`` (a row of a frame)."""
+    return t[at], t[at + 1], t[at + 2], t[at + 3]
+
+
+@nb.njit(inline="always", **_JIT_GIL)
 def _frames_one(q, itab, ftab, fb):
     """The axis frames of the joints of the tables (parents first) for one configuration ``q``, into
     ``ftab[fb + 12 j: fb + 12 j + 12]`` (row ``4r + c``): the arithmetic of ``compiled._chunk_frames`` /
@@ -82,10 +88,7 @@ def _frames_one(q, itab, ftab, fb):
         c20, c21, c22, c23 = ftab[jf + 10], ftab[jf + 11], ftab[jf + 12], ftab[jf + 13]
         P = fb + 12 * p
         for r in range(3):
-            a0 = ftab[P + 4 * r]
-            a1 = ftab[P + 4 * r + 1]
-            a2 = ftab[P + 4 * r + 2]
-            p3 = ftab[P + 4 * r + 3]
+            a0, a1, a2, p3 = _row(ftab, P + 4 * r)
             if revolute:
                 x = a0 * c00 + a1 * c10 + a2 * c20
                 y = a0 * c01 + a1 * c11 + a2 * c21
@@ -142,10 +145,7 @@ def fk_one(itab, ftab, out, q):
             continue
         F = fb + 12 * j
         for r in range(3):
-            f0 = ftab[F + 4 * r]
-            f1 = ftab[F + 4 * r + 1]
-            f2 = ftab[F + 4 * r + 2]
-            f3 = ftab[F + 4 * r + 3]
+            f0, f1, f2, f3 = _row(ftab, F + 4 * r)
             o[r, 0] = f0 * ftab[d] + f1 * ftab[d + 4] + f2 * ftab[d + 8]
             o[r, 1] = f0 * ftab[d + 1] + f1 * ftab[d + 5] + f2 * ftab[d + 9]
             o[r, 2] = f0 * ftab[d + 2] + f1 * ftab[d + 6] + f2 * ftab[d + 10]
