@@ -125,6 +125,7 @@ def configure_process(settings) -> None:
 
     - The GIL's switch interval (``KIN_SWITCH_INTERVAL``): how long the event loop may wait for
       the GIL while a heavy thread runs Python code.
+    - BLAS threads (``KIN_BLAS_THREADS``, default 1: :func:`limit_blas_threads`).
     - ``gc.freeze()``: the objects of the start-up (modules, numba's and Pinocchio's tables: most
       of the heap) move to the permanent generation, which the cyclic collector no longer
       traverses. A full collection holds the GIL throughout; over the whole heap it took 30-130 ms
@@ -136,12 +137,31 @@ def configure_process(settings) -> None:
 
     global _frozen
     sys.setswitchinterval(settings.switch_interval)
+    limit_blas_threads(settings.blas_threads)
     if not _frozen:  # once per process (a test process starts many apps)
         freeze_heap()
         _frozen = True
 
 
 _frozen = False
+
+
+def limit_blas_threads(threads: int) -> None:
+    """At most ``threads`` BLAS / LAPACK threads in this process (0: leave the library's default).
+
+    OpenBLAS starts a thread per core and its threads spin, busy, between calls: a calibration's
+    factorisations in two heavy threads kept both cores of a 2-core machine spinning, and the event
+    loop waited for a core: /health's p99 under four calibrations was 290-900 ms, 18 ms with one BLAS
+    thread (max 0.7-2.7 s -> 60 ms; load average 9-10 on the machine). The heavy pool and the
+    workers are the parallelism; BLAS inside one request adds none worth the loop's latency."""
+    if threads <= 0:
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a slimmer install: the BLAS default stays
+        log.warning("threadpoolctl is not installed: BLAS keeps its own thread count (KIN_BLAS_THREADS ignored)")
+        return
+    threadpool_limits(limits=threads, user_api="blas")
 
 
 def freeze_heap() -> None:
