@@ -125,6 +125,7 @@ def configure_process(settings) -> None:
 
     - The GIL's switch interval (``KIN_SWITCH_INTERVAL``): how long the event loop may wait for
       the GIL while a heavy thread runs Python code.
+    - BLAS threads (``KIN_BLAS_THREADS``, default 1: :func:`limit_blas_threads`).
     - ``gc.freeze()``: the objects of the start-up (modules, numba's and Pinocchio's tables: most
       of the heap) move to the permanent generation, which the cyclic collector no longer
       traverses. A full collection holds the GIL throughout; over the whole heap it took 30-130 ms
@@ -136,13 +137,44 @@ def configure_process(settings) -> None:
 
     global _frozen
     sys.setswitchinterval(settings.switch_interval)
+    limit_blas_threads(settings.blas_threads)
     if not _frozen:  # once per process (a test process starts many apps)
-        gc.collect()
-        gc.freeze()
+        freeze_heap()
         _frozen = True
 
 
 _frozen = False
+
+
+def limit_blas_threads(threads: int) -> None:
+    """At most ``threads`` BLAS / LAPACK threads in this process (0: leave the library's default).
+
+    OpenBLAS starts a thread per core and its threads spin, busy, between calls: a calibration's
+    factorisations in two heavy threads kept both cores of a 2-core machine spinning, and the event
+    loop waited for a core: /health's p99 under four calibrations was 290-900 ms, 18 ms with one BLAS
+    thread (max 0.7-2.7 s -> 60 ms; load average 9-10 on the machine). The heavy pool and the
+    workers are the parallelism; BLAS inside one request adds none worth the loop's latency."""
+    if threads <= 0:
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a slimmer install: the BLAS default stays
+        log.warning("threadpoolctl is not installed: BLAS keeps its own thread count (KIN_BLAS_THREADS ignored)")
+        return
+    threadpool_limits(limits=threads, user_api="blas")
+
+
+def freeze_heap() -> None:
+    """Collect, then move every object alive to the permanent generation (``gc.freeze()``), which
+    the cyclic collector no longer traverses: at the start (:func:`configure_process`) and again when
+    a background warm-up and the routes' preparation end (``app.warm``, ``app.main``). They run while
+    the worker answers, after the first freeze, and left ~135,000 objects that every full collection
+    traversed: ~50-100 ms holding the GIL, the event loop stalled, whenever one came during heavy work
+    (/health's p99 under load was about that). This collection (~50 ms, once) happens instead."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
 
 
 #: JSON bodies up to this many bytes are parsed on the event loop (well under a millisecond);
@@ -181,15 +213,42 @@ def _exit_with(parent) -> None:
     os._exit(0)
 
 
-def decode_json(schema_name: str, body: bytes) -> tuple[str, Any]:
+#: the batch fields a large JSON body's items are counted in before it is decoded: the setting that
+#: bounds them, what they are, and how many containers open at a batch's first item (fewer: one item,
+#: a vector of q or a 4x4 target)
+COUNTED_FIELDS = {"q": ("max_batch", "configurations", 1), "qdot": ("max_batch", "configurations", 1),
+                  "target": ("max_batch", "targets", 2), "measurements": ("max_measurements", "measurements", 0)}
+
+
+def over_count(body: bytes, limits: dict[str, int | None]) -> tuple[str, int, str, str] | None:
+    """``(setting, n, what, field)`` of the first batch field of ``body`` whose items, counted in the
+    raw bytes (:func:`app.json_count.top_level_counts`: no decode, memory bounded), are over
+    ``limits[setting]``; None when none is."""
+    from .json_count import top_level_counts
+
+    for field, (items, depth) in top_level_counts(body, COUNTED_FIELDS).items():
+        setting, what, batch_depth = COUNTED_FIELDS[field]
+        n = items if depth >= batch_depth else 1
+        limit = limits.get(setting)
+        if limit is not None and n > limit:
+            return setting, n, what, field
+    return None
+
+
+def decode_json(schema_name: str, body: bytes, limits: dict[str, int | None] | None = None) -> tuple[str, Any]:
     """In the decoder process: ``("ok", fields)`` of ``body`` validated by ``app.schemas.<schema_name>``
     (``model_dump()``; the batch fields as float arrays when they are plain numeric batches), or
-    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them)."""
+    ``("invalid", errors)`` (pydantic's errors, as the app's handler reports them), or, before any
+    decoding, ``("too-large", (setting, n, what, field))`` when a batch field holds more items than
+    ``limits`` (settings by name) allow (:func:`over_count`)."""
     import numpy as np
     from pydantic import ValidationError
 
     from . import schemas
 
+    over = over_count(body, limits) if limits else None
+    if over is not None:
+        return "too-large", over
     try:
         data = getattr(schemas, schema_name).model_validate_json(body).model_dump()
     except ValidationError as exc:
@@ -254,16 +313,16 @@ def start_decoder(settings):
     return _decoder().submit(_warm_decoder, _warm_body())
 
 
-def _decode_elsewhere(schema_name: str, body: bytes) -> tuple[str, Any]:
+def _decode_elsewhere(schema_name: str, body: bytes, limits: dict[str, int | None]) -> tuple[str, Any]:
     """:func:`decode_json` in the worker's decoder process (its own GIL), here if that process is broken."""
     from concurrent.futures.process import BrokenProcessPool
 
     try:
-        return _decoder().submit(decode_json, schema_name, body).result()
+        return _decoder().submit(decode_json, schema_name, body, limits).result()
     except BrokenProcessPool:  # killed (out of memory?): a new one next time, this body decoded here
         with _lock:
             _decoders.pop(os.getpid(), None)
-        return decode_json(schema_name, body)
+        return decode_json(schema_name, body, limits)
 
 
 async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
@@ -277,10 +336,18 @@ async def parse_body(request: Request, schema, body: bytes) -> dict[str, Any]:
     settings = request.app.state.settings
     if len(body) <= INLINE_BODY_BYTES:
         return schema.model_validate_json(body).model_dump()
+    limits = {"max_batch": settings.max_batch, "max_measurements": settings.max_measurements}
     if settings.decode_process_bytes and len(body) > settings.decode_process_bytes:
-        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body)
+        status, data = await run_heavy(request, _decode_elsewhere, schema.__name__, body, limits)
     else:
-        status, data = await run_heavy(request, decode_json, schema.__name__, body)
+        status, data = await run_heavy(request, decode_json, schema.__name__, body, limits)
+    if status == "too-large":
+        from kinematics.errors import BudgetError
+
+        setting, n, what, field = data
+        raise BudgetError(f"{field} holds {n} {what} (counted in the body before decoding it); the limit "
+                          f"({setting}) is {limits[setting]}", budget=setting.removeprefix("max_").replace("_", "-"),
+                          field=field, limit=limits[setting])
     if status == "invalid":
         from fastapi.exceptions import RequestValidationError
 

@@ -116,6 +116,16 @@ class FastJSONResponse(JSONResponse):
             await self.background()
 
 
+class SmallJSONResponse(FastJSONResponse):
+    """A JSON answer its route knows to be small (no list or array over :data:`CHUNK_ITEMS` items, a
+    few configurations): one orjson call, the bytes :func:`dump_parts` gives such an answer, without
+    its walk through the answer looking for long lists (a third of the encoding time of one
+    configuration's FK answer)."""
+
+    def render(self, content: Any) -> bytes:
+        return orjson.dumps(content, option=_ORJSON_OPTIONS, default=_default)
+
+
 class ProblemResponse(FastJSONResponse):
     """An RFC 9457 problem-details answer."""
 

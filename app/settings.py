@@ -42,6 +42,8 @@ variable                   default                     meaning
 ``KIN_DECODE_PROCESS_BYTES`` 256 KiB                   JSON bodies over this are decoded in a
                                                        per-worker process (0: never)
 ``KIN_SWITCH_INTERVAL``    0.005                       the workers' GIL switch interval, seconds
+``KIN_BLAS_THREADS``       1                           threads of BLAS / LAPACK (OpenBLAS) in each
+                                                       worker (0: the library's own default)
 ``KIN_SHUTDOWN_TIMEOUT``   30                          seconds in-flight requests get to finish
                                                        after SIGTERM (``kinematics serve``,
                                                        the container); then they are cancelled
@@ -122,6 +124,9 @@ class Settings(BaseSettings):
     switch_interval: float = Field(default=0.005, gt=0, le=1,
                                    description="seconds a thread may hold the GIL while another waits for it "
                                                "(sys.setswitchinterval of each worker)")
+    blas_threads: int = Field(default=1, ge=0, le=256,
+                              description="threads of BLAS / LAPACK in each worker (0: the library's default); "
+                                          "more spin on the cores the event loop needs")
     decode_process_bytes: int = Field(default=256 * 1024, ge=0,
                                       description="JSON bodies over this many bytes are decoded in a separate "
                                                   "process of the worker (0: never)")

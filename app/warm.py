@@ -21,6 +21,8 @@ import time
 
 from kinematics.usecases.warm import steps
 
+from .heavy import freeze_heap
+
 log = logging.getLogger("app.warm")
 
 PENDING, RUNNING, DONE, FAILED = "pending", "running", "done", "failed"
@@ -67,6 +69,8 @@ class WarmUp:
                 run()
                 log.info("warm-up: %s (%.1f s)", name, time.perf_counter() - t0)
             self.seconds = time.perf_counter() - start
+            if catalogue:  # in the background, after the worker's start froze its heap (app.heavy.freeze_heap)
+                freeze_heap()
             self.state, self.step = DONE, None
             log.info("warm-up: done in %.1f s", self.seconds)
         except Exception:  # noqa: BLE001 - the requests then compile what they need; the service still answers
@@ -100,6 +104,13 @@ def prepare_routes(app) -> None:
             route.matches(_NO_ROUTE)
         except Exception:  # noqa: BLE001 - a route that cannot match this scope prepares on its first request
             log.debug("warm-up: route %r not prepared", route, exc_info=True)
+
+
+def prepare_routes_in_background(app) -> None:
+    """:func:`prepare_routes` in a thread while the worker answers, then the heap frozen again (what it
+    built would else be traversed by every full collection: :func:`app.heavy.freeze_heap`)."""
+    prepare_routes(app)
+    freeze_heap()
 
 
 def process_warm_up() -> WarmUp:

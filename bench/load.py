@@ -114,10 +114,10 @@ def probe(port: int, seconds: float) -> dict[str, np.ndarray]:
     return {k: np.array(v) for k, v in out.items()}
 
 
-def _row(phase: str, name: str, t: np.ndarray) -> list:
+def _row(phase: str, name: str, t: np.ndarray, load: float) -> list:
     p50, p99 = np.percentile(t, 50), np.percentile(t, 99)
     return [phase, name, len(t), f"{p50 * 1e3:.2f}", f"{p99 * 1e3:.2f}", f"{t.max() * 1e3:.1f}",
-            "yes" if p99 < P99_TARGET else "**no**"]
+            "yes" if p99 < P99_TARGET else "**no**", f"{load:.2f}"]
 
 
 def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
@@ -133,7 +133,7 @@ def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
             _request(port, "POST", "/models/ur5/ik?link=tool0", *bodies["npy"]) if _ == 0 else None
         t = probe(port, seconds)
         load_alone = os.getloadavg()[0]
-        rows += [_row("alone", "GET /health", t["health"]), _row("alone", "POST fk (1 q)", t["fk"])]
+        rows += [_row("alone", "GET /health", t["health"], load_alone), _row("alone", "POST fk (1 q)", t["fk"], load_alone)]
         ctx = mp.get_context("spawn")
         for transport in transports:
             body, headers = bodies[transport]
@@ -156,19 +156,21 @@ def measure_load(seconds: float = 20.0, clients: int = 4, targets: int = 10_000,
                      "calibration": f"{clients} clients x calibration, {targets // 5} measurements (JSON)",
                      "collision": f"{clients} clients x collision, {targets} configurations (JSON)"}.get(
                 transport, f"{clients} clients x IK {targets} targets ({transport})")
-            rows += [_row(phase, "GET /health", t["health"]), _row(phase, "POST fk (1 q)", t["fk"])]
+            rows += [_row(phase, "GET /health", t["health"], load), _row(phase, "POST fk (1 q)", t["fk"], load)]
             per = {"fk-json": FK_BATCH, "calibration": targets // 5}.get(transport, targets)
             heavy.append([phase, done, f"{done * per / elapsed:,.0f}", counts[1], f"{load:.2f}"])
     return {"rows": rows, "heavy": heavy, "load_alone": load_alone}
 
 
 def run(report: Report, quick: bool = False, seconds: float | None = None, clients: int = 4,
-        targets: int | None = None, transports: tuple[str, ...] = ("npy", "json")) -> dict:
+        targets: int | None = None, transports: tuple[str, ...] = ("npy", "json"), workers: int = 2,
+        env: dict | None = None) -> dict:
     seconds = seconds if seconds is not None else (5.0 if quick else 20.0)
     targets = targets if targets is not None else (2_000 if quick else 10_000)
-    out = measure_load(seconds, clients, targets, transports)
-    report.add("Latency of light requests, alone and under heavy load (2 uvicorn workers; ms)",
-               table(["phase", "request", "n", "p50", "p99", "max", "p99 < 50 ms?"], out["rows"]),
+    out = measure_load(seconds, clients, targets, transports, workers=workers, env=env)
+    settings = ", ".join(f"{k}={v}" for k, v in (env or {}).items()) or "default settings"
+    report.add(f"Latency of light requests, alone and under heavy load ({workers} uvicorn workers, {settings}; ms)",
+               table(["phase", "request", "n", "p50", "p99", "max", "p99 < 50 ms?", "load average (1 min)"], out["rows"]),
                f"Each phase probes for {seconds:g} s (a new connection per request, {PROBE_INTERVAL * 1e3:g} ms "
                f"apart). Load average during the phase alone: {out['load_alone']:.2f}.")
     report.add("The heavy load during the probes",
@@ -185,7 +187,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--targets", type=int, default=10_000, help="IK targets per heavy request (default 10,000)")
     parser.add_argument("--transport", default="npy,json",
                         help="loads, comma-separated: npy, json (IK batches), fk-json (100,000-configuration FK "
-                             "batches in JSON) (default npy,json)")
+                             "batches in JSON), calibration (--targets / 5 measurements, JSON), collision "
+                             "(--targets configurations with distances, JSON) (default npy,json)")
+    parser.add_argument("--workers", type=int, default=2, help="uvicorn workers (default 2)")
+    parser.add_argument("--env", action="append", default=[], metavar="KEY=VALUE",
+                        help="a setting of the server, e.g. KIN_SWITCH_INTERVAL=0.001 (repeat for more)")
     parser.add_argument("--output", help="write the report (markdown) here, e.g. bench/RESULTS_LOAD.md")
     args = parser.parse_args(argv)
     from .run_all import write_report
@@ -196,7 +202,8 @@ def main(argv: list[str] | None = None) -> int:
     print(header, flush=True)
     t0 = time.perf_counter()
     run(report, seconds=args.seconds, clients=args.clients, targets=args.targets,
-        transports=tuple(t.strip() for t in args.transport.split(",") if t.strip()))
+        transports=tuple(t.strip() for t in args.transport.split(",") if t.strip()), workers=args.workers,
+        env=dict(kv.split("=", 1) for kv in args.env))
     if args.output:
         write_report(args.output, "Benchmark results (load)", report.sections, command, header,
                      time.perf_counter() - t0, blas_threads=1)

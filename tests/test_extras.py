@@ -42,7 +42,8 @@ def test_the_core_dependencies_are_lean():
 
 def test_every_heavy_dependency_is_in_an_extra_and_all_gathers_the_user_extras():
     extras = PYPROJECT["project"]["optional-dependencies"]
-    for extra, wanted in {"service": {"fastapi", "uvicorn", "pydantic", "pydantic-settings", "prometheus-client"},
+    for extra, wanted in {"service": {"fastapi", "uvicorn", "pydantic", "pydantic-settings", "prometheus-client",
+                                      "threadpoolctl"},
                           "verify": {"pin"}, "catalogue": {"example-robot-data"}, "mjcf": {"mujoco"},
                           "xacro": {"xacro"}, "symbolic": {"sympy"}, "plot": {"matplotlib"},
                           "logs": {"rosbags", "pyarrow"}}.items():

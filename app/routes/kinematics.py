@@ -26,7 +26,7 @@ from ..adapter import (INLINE_MAX_CONFIGURATIONS, FloatingBaseQuery, LimitsQuery
 from ..deps import ModelId, RegistryDep, SettingsDep, require_read_key, wants_npy
 from ..metrics import record_configurations
 from ..npy import decode_q
-from ..responses import FastJSONResponse, NpyResponse
+from ..responses import CHUNK_ITEMS, FastJSONResponse, NpyResponse, SmallJSONResponse
 from ..schemas import (FK_EXAMPLES, JACOBIAN_EXAMPLES, FKRequest, FKResponse, JacobianRequest, JacobianResponse,
                        TaskRepresentationName)
 from ..schemas.jacobian import check_analytic_reference
@@ -123,7 +123,7 @@ def _forward_kinematics(model_id: str, req: FKRequest, request: Request, registr
         headers["X-Out-Of-Limits"] = str(answer.out_of_limits_count())
         headers.update(verification_headers(verification))
         return NpyResponse(answer.poses, headers=headers)
-    return FastJSONResponse(FKResponse.content(rec.id, answer, req.format))
+    return _json(FKResponse.content(rec.id, answer, req.format), answer, len(answer.links))
 
 
 @_batch_route("/models/{model_id}/jacobian", JacobianResponse, "(N, 6, dof) float64 Jacobians, linear rows first",
@@ -157,7 +157,14 @@ def _jacobian(model_id: str, req: JacobianRequest, request: Request, registry, s
                         "X-Out-Of-Limits": str(answer.out_of_limits_count())})
         headers.update(verification_headers(answer.verification))
         return NpyResponse(answer.jacobians, headers=headers)
-    return FastJSONResponse(JacobianResponse.content(rec.id, answer))
+    return _json(JacobianResponse.content(rec.id, answer), answer, 1)
+
+
+def _json(content: dict, answer, links: int) -> FastJSONResponse:
+    """The JSON answer of ``content``: encoded in one call when it is small (a few configurations and
+    no list longer than a chunk: :class:`app.responses.SmallJSONResponse`), else in parts."""
+    small = answer.Q.shape[0] <= INLINE_MAX_CONFIGURATIONS and max(links, answer.Q.shape[1]) <= CHUNK_ITEMS
+    return (SmallJSONResponse if small else FastJSONResponse)(content)
 
 
 def _analytic_jacobian(model_id: str, req: JacobianRequest, request: Request, registry, settings: Settings):

@@ -2,7 +2,8 @@
 and by the batch path's batch of one, ``Kernel.fk`` / ``Kernel.jacobian`` in :mod:`kinematics.engine.plans`).
 
 :func:`fk_one` and :func:`jacobian_one` take two packed tables (every argument costs the numba
-dispatcher time) whose tail is a per-thread scratch buffer; :func:`_bind` makes the plain
+call time) whose tail is the scratch the entry writes its frames to (the entries hold the GIL, so
+one scratch serves every thread); :func:`_bind` makes the plain
 function ``f(q, out=None)`` that calls one of them. This module reads a kernel (its ``_jint``,
 ``_jflt``, ``n``, ``poe.dof``, ``path_plan``) without importing :mod:`kinematics.engine.plans`.
 """
@@ -10,48 +11,45 @@ function ``f(q, out=None)`` that calls one of them. This module reads a kernel (
 from __future__ import annotations
 
 import math
-import threading
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 from ..errors import KinematicsError
 # the batch kernels' private row kernels, JIT options and sine/cosine coefficients: a single entry repeats
 # their arithmetic operation for operation so its answer equals the batch row bit for bit
 from . import compiled as _c
-from .compiled import _JIT, REVOLUTE, SINCOS_MAX_ARG, _jacobian_row, _poses_row
+from .compiled import _JIT, REVOLUTE, SINCOS_MAX_ARG, _jacobian_row
 
 
-@nb.njit(**_JIT)
-def _unpack(itab, ftab, q):
-    """The packed tables: ``itab`` int64 ``[n, m, x, jint (n x 3), joints (m), links]`` and ``ftab``
-    float64 ``[jflt (n x 14), D (... x 16), scratch (15 n + dof)]`` (one argument each: every
-    argument costs the dispatcher time)."""
+#: the single entries hold the GIL: a call takes well under a microsecond, less than releasing and
+#: taking back the GIL would, and holding it lets every thread share one scratch (no thread can be
+#: inside an entry while another is)
+_JIT_GIL = {**_JIT, "nogil": False}
+#: entries of ``itab``'s head: ``n, m, x, dof`` (:func:`_tables`)
+_HEAD = 4
+
+
+@nb.njit(inline="always", **_JIT_GIL)
+def _row(t, at):
+    """The four entries ``t[at: at + 4]`` (a row of a frame)."""
+    return t[at], t[at + 1], t[at + 2], t[at + 3]
+
+
+@nb.njit(inline="always", **_JIT_GIL)
+def _frames_one(q, itab, ftab, fb):
+    """The axis frames of the joints of the tables (parents first) for one configuration ``q``, into
+    ``ftab[fb + 12 j: fb + 12 j + 12]`` (row ``4r + c``): the arithmetic of ``compiled._chunk_frames`` /
+    ``_sincos_row`` / ``_joint_frames`` for a chunk of one, operation for operation (same bits), as
+    scalar code on the flat tables of :func:`_tables` (no views: building one costs as much as a
+    joint's arithmetic)."""
     n, m = itab[0], itab[1]
-    jint = itab[3: 3 + 3 * n].reshape(n, 3)
-    joints = itab[3 + 3 * n: 3 + 3 * n + m]
-    links = itab[3 + 3 * n + m:]
-    dof = q.shape[0]
-    size = ftab.shape[0]
-    jflt = ftab[: 14 * n].reshape(n, 14)
-    D = ftab[14 * n: size - 15 * n - dof]
-    base = size - 15 * n - dof
-    F = ftab[base: base + 12 * n].reshape(n, 12, 1)
-    W = ftab[base + 12 * n: base + 15 * n].reshape(3, n, 1)
-    Q = ftab[base + 15 * n:].reshape(1, dof)
-    for c in range(dof):
-        Q[0, c] = q[c]
-    return jint, joints, links, jflt, D, F, W, Q
-
-
-@nb.njit(**_JIT)
-def _frames_one(q, joints, jint, jflt, F):
-    """The axis frames ``F[j, :, 0]`` of ``joints`` (parents first) for one configuration: the
-    arithmetic of ``compiled._chunk_frames`` / ``_sincos_row`` / ``_joint_frames`` for a chunk of
-    one, operation for operation (same bits), as scalar code without the chunk's row views."""
-    for jj in range(joints.shape[0]):
-        j = joints[jj]
-        th = q[jint[j, 0]] * jflt[j, 0] + jflt[j, 1]
+    jo = _HEAD + 3 * n
+    for jj in range(m):
+        j = itab[jo + jj]
+        ji, jf, F = _HEAD + 3 * j, 14 * j, fb + 12 * j
+        th = q[itab[ji]] * ftab[jf] + ftab[jf + 1]
         # sine and cosine: compiled._sincos_row
         k = np.rint(th * _c._TWO_OVER_PI)
         r = (th - k * _c._PIO2_1) - k * _c._PIO2_1T
@@ -67,78 +65,130 @@ def _frames_one(q, joints, jint, jflt, F):
             s = math.sin(th)
             c = math.cos(th)
         # the frame: compiled._joint_frames
-        p = jint[j, 2]
-        revolute = jint[j, 1] == REVOLUTE
+        p = itab[ji + 2]
+        revolute = itab[ji + 1] == REVOLUTE
         if p < 0:
             for r in range(3):
-                x = jflt[j, 2 + 4 * r]
-                y = jflt[j, 2 + 4 * r + 1]
-                zz = jflt[j, 2 + 4 * r + 2]
-                t = jflt[j, 2 + 4 * r + 3]
+                x = ftab[jf + 2 + 4 * r]
+                y = ftab[jf + 3 + 4 * r]
+                zz = ftab[jf + 4 + 4 * r]
+                t = ftab[jf + 5 + 4 * r]
                 if revolute:
-                    F[j, 4 * r, 0] = c * x + s * y
-                    F[j, 4 * r + 1, 0] = c * y - s * x
-                    F[j, 4 * r + 3, 0] = t
+                    ftab[F + 4 * r] = c * x + s * y
+                    ftab[F + 4 * r + 1] = c * y - s * x
+                    ftab[F + 4 * r + 3] = t
                 else:
-                    F[j, 4 * r, 0] = x
-                    F[j, 4 * r + 1, 0] = y
-                    F[j, 4 * r + 3, 0] = t + th * zz
-                F[j, 4 * r + 2, 0] = zz
+                    ftab[F + 4 * r] = x
+                    ftab[F + 4 * r + 1] = y
+                    ftab[F + 4 * r + 3] = t + th * zz
+                ftab[F + 4 * r + 2] = zz
             continue
-        c00, c01, c02, c03 = jflt[j, 2], jflt[j, 3], jflt[j, 4], jflt[j, 5]
-        c10, c11, c12, c13 = jflt[j, 6], jflt[j, 7], jflt[j, 8], jflt[j, 9]
-        c20, c21, c22, c23 = jflt[j, 10], jflt[j, 11], jflt[j, 12], jflt[j, 13]
+        c00, c01, c02, c03 = ftab[jf + 2], ftab[jf + 3], ftab[jf + 4], ftab[jf + 5]
+        c10, c11, c12, c13 = ftab[jf + 6], ftab[jf + 7], ftab[jf + 8], ftab[jf + 9]
+        c20, c21, c22, c23 = ftab[jf + 10], ftab[jf + 11], ftab[jf + 12], ftab[jf + 13]
+        P = fb + 12 * p
         for r in range(3):
-            a0 = F[p, 4 * r, 0]
-            a1 = F[p, 4 * r + 1, 0]
-            a2 = F[p, 4 * r + 2, 0]
-            p3 = F[p, 4 * r + 3, 0]
+            a0, a1, a2, p3 = _row(ftab, P + 4 * r)
             if revolute:
                 x = a0 * c00 + a1 * c10 + a2 * c20
                 y = a0 * c01 + a1 * c11 + a2 * c21
-                F[j, 4 * r, 0] = c * x + s * y
-                F[j, 4 * r + 1, 0] = c * y - s * x
-                F[j, 4 * r + 2, 0] = a0 * c02 + a1 * c12 + a2 * c22
-                F[j, 4 * r + 3, 0] = a0 * c03 + a1 * c13 + a2 * c23 + p3
+                ftab[F + 4 * r] = c * x + s * y
+                ftab[F + 4 * r + 1] = c * y - s * x
+                ftab[F + 4 * r + 2] = a0 * c02 + a1 * c12 + a2 * c22
+                ftab[F + 4 * r + 3] = a0 * c03 + a1 * c13 + a2 * c23 + p3
             else:
                 zz = a0 * c02 + a1 * c12 + a2 * c22
-                F[j, 4 * r, 0] = a0 * c00 + a1 * c10 + a2 * c20
-                F[j, 4 * r + 1, 0] = a0 * c01 + a1 * c11 + a2 * c21
-                F[j, 4 * r + 2, 0] = zz
-                F[j, 4 * r + 3, 0] = a0 * c03 + a1 * c13 + a2 * c23 + p3 + th * zz
+                ftab[F + 4 * r] = a0 * c00 + a1 * c10 + a2 * c20
+                ftab[F + 4 * r + 1] = a0 * c01 + a1 * c11 + a2 * c21
+                ftab[F + 4 * r + 2] = zz
+                ftab[F + 4 * r + 3] = a0 * c03 + a1 * c13 + a2 * c23 + p3 + th * zz
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT_GIL)
+def _refused(q, dof):
+    """``q`` is not a contiguous vector of ``dof`` values (the stride of a vector of one value or
+    none does not matter, and numpy gives such vectors other strides)."""
+    return q.shape[0] != dof or (dof > 1 and q.strides[0] != 8)
+
+
+def _pose_of(out, k):  # pragma: no cover - compiled only (overloaded below)
+    """In compiled code: pose ``k`` of ``out``, (L', 4, 4), or ``out`` itself when it is one (4, 4)."""
+
+
+@overload(_pose_of, inline="always")
+def _pose_of_overload(out, k):
+    if out.ndim == 2:
+        return lambda out, k: out
+    return lambda out, k: out[k]
+
+
+@nb.njit(**_JIT_GIL)
 def fk_one(itab, ftab, out, q):
     """Poses of the links of a plan (as :func:`kinematics.engine.compiled.fk`) for one
     configuration ``q`` (dof,), into ``out`` (L', 4, 4) or (4, 4) for one link (C-contiguous).
-    Tables as :func:`_unpack` (``x`` unused, links: the plan's ``lj``, D: its (L', 4, 4) factors)."""
-    jint, order, lj, jflt, D, F, W, Q = _unpack(itab, ftab, q)
-    _frames_one(q, order, jint, jflt, F)
-    _poses_row(F, 0, lj, D.reshape(lj.shape[0], 4, 4), out.reshape(lj.shape[0], 16))
+    Tables as :func:`_tables` (``x`` unused, links: the plan's ``lj``, D: its (L', 4, 4) factors);
+    the arithmetic of ``compiled._poses_row``, operation for operation. Refuses (returns True, writes
+    nothing) a ``q`` that is not a contiguous vector of the tables' ``dof`` values."""
+    if _refused(q, itab[3]):
+        return True
+    n, m = itab[0], itab[1]
+    lo = _HEAD + 3 * n + m
+    fb = ftab.shape[0] - 12 * n
+    _frames_one(q, itab, ftab, fb)
+    for k in range(itab.shape[0] - lo):
+        o = _pose_of(out, k)
+        j = itab[lo + k]
+        d = 14 * n + 16 * k
+        if j < 0:
+            for e in range(16):
+                o[e // 4, e % 4] = ftab[d + e]
+            continue
+        F = fb + 12 * j
+        for r in range(3):
+            f0, f1, f2, f3 = _row(ftab, F + 4 * r)
+            o[r, 0] = f0 * ftab[d] + f1 * ftab[d + 4] + f2 * ftab[d + 8]
+            o[r, 1] = f0 * ftab[d + 1] + f1 * ftab[d + 5] + f2 * ftab[d + 9]
+            o[r, 2] = f0 * ftab[d + 2] + f1 * ftab[d + 6] + f2 * ftab[d + 10]
+            o[r, 3] = f0 * ftab[d + 3] + f1 * ftab[d + 7] + f2 * ftab[d + 11] + f3
+        o[3, 0] = 0.0
+        o[3, 1] = 0.0
+        o[3, 2] = 0.0
+        o[3, 3] = 1.0
+    return False
 
 
-@nb.njit(**_JIT)
+@nb.njit(**_JIT_GIL)
 def jacobian_one(itab, ftab, out, q):
     """The Jacobian (6, dof) of a link (as :func:`kinematics.engine.compiled.jacobian`) for one
-    configuration ``q`` (dof,), into ``out`` (zeroed here first). Tables as :func:`_unpack` (``x``:
-    the reference code, joints: the link's path, D: its (4, 4) factor)."""
-    jint, path, _, jflt, D, F, W, Q = _unpack(itab, ftab, q)
+    configuration ``q`` (dof,), into ``out`` (zeroed here first). Tables as :func:`_tables` (``x``:
+    the reference code, joints: the link's path, D: its (4, 4) factor); refuses ``q`` as :func:`fk_one`."""
+    if _refused(q, itab[3]):
+        return True
     for r in range(6):
         for c in range(out.shape[1]):
             out[r, c] = 0.0
-    if path.shape[0] == 0:
-        return
-    _frames_one(q, path, jint, jflt, F)
-    _jacobian_row(F, 0, path, jint, jflt, D.reshape(4, 4), itab[2], out)
+    n, m = itab[0], itab[1]
+    if m == 0:
+        return False
+    fb = ftab.shape[0] - 12 * n
+    _frames_one(q, itab, ftab, fb)
+    jint = itab[_HEAD: _HEAD + 3 * n].reshape(n, 3)
+    path = itab[_HEAD + 3 * n: _HEAD + 3 * n + m]
+    _jacobian_row(ftab[fb:].reshape(n, 12, 1), 0, path, jint, ftab[: 14 * n].reshape(n, 14),
+                  ftab[14 * n: 14 * n + 16].reshape(4, 4), itab[2], out)
+    return False
 
 
-def _tables(kernel, joints, x: int, links, D: np.ndarray, dof: int):
+def _tables(kernel, joints, x: int, links, D: np.ndarray):
+    """The packed tables of an entry: ``itab`` int64 ``[n, m, x, dof, jint (n x 3), joints (m), links]``
+    (read-only) and ``ftab`` float64 ``[jflt (n x 14), D (... x 16), frames (n x 12)]``, whose tail
+    is the scratch the entry writes its frames to (one argument each: every argument costs the call
+    time)."""
     n = kernel.n
-    itab = np.concatenate([np.array([n, len(joints), x], dtype=np.int64), kernel._jint.reshape(-1),
+    itab = np.concatenate([np.array([n, len(joints), x, kernel.poe.dof], dtype=np.int64), kernel._jint.reshape(-1),
                            np.asarray(joints, dtype=np.int64), np.asarray(links, dtype=np.int64)])
     ftab = np.concatenate([kernel._jflt.reshape(-1), np.ascontiguousarray(D, dtype=np.float64).reshape(-1),
-                           np.zeros(15 * n + dof)])
+                           np.zeros(12 * n)])
     itab.setflags(write=False)
     return itab, ftab
 
@@ -150,22 +200,11 @@ def _coerce(q, dof: int) -> np.ndarray:
     return q
 
 
-def _per_thread(ftab: np.ndarray):
-    """Each thread's own copy of the float table (its tail is the scratch the entry writes)."""
-    local = threading.local()
-
-    def get() -> np.ndarray:
-        local.ftab = ftab.copy()
-        return local.ftab
-
-    return local, get
-
-
 def _compiled_entry(entry, itab, ftab, shape, dof):
     """The compiled ``entry`` for exactly the argument types :func:`_bind` passes, callable without
     numba's dispatcher (``overloads[signature].entry_point``: no typing of the four arguments on each
     call, a third of a single call's cost); the dispatcher itself if this numba has no such attribute."""
-    args = (itab, ftab.copy(), np.empty(shape), np.zeros(dof))
+    args = (itab, ftab, np.empty(shape), np.zeros(dof))
     entry(*args)  # compiled, or loaded from the cache, for these types
     try:
         return entry.overloads[tuple(nb.typeof(a) for a in args)].entry_point
@@ -174,27 +213,26 @@ def _compiled_entry(entry, itab, ftab, shape, dof):
 
 
 def _bind(entry, itab, ftab, shape, dof):
-    """``f(q, out=None)`` calling the compiled ``entry`` on pre-bound tables, with each thread's
-    own scratch copy of ``ftab`` (the hot path: no lookup beyond the ones below). A ``q`` that is
-    a C-contiguous float64 vector of ``dof`` values and no ``out`` take the compiled function
-    directly (:func:`_compiled_entry`); other arguments go through numba's dispatcher, which
-    checks their types."""
-    local, mine = _per_thread(ftab)
-    ndarray, f64, empty, qshape, qstrides = np.ndarray, np.dtype(np.float64), np.empty, (dof,), (8,)
+    """``f(q, out=None)`` calling the compiled ``entry`` on pre-bound tables (the hot path: no
+    lookup beyond the ones below). The entry holds the GIL, so every thread shares the scratch tail
+    of ``ftab``. A ``q`` that is a C-contiguous float64 vector of ``dof`` values and no ``out``
+    take the compiled function directly (:func:`_compiled_entry`); other arguments are converted
+    and checked first (``out``: an array of the result's shape), then go through numba's
+    dispatcher, which checks their types too."""
+    ndarray, f64, empty = np.ndarray, np.dtype(np.float64), np.empty
     direct = _compiled_entry(entry, itab, ftab, shape, dof)
 
     def call(q, out=None):
-        if q.__class__ is not ndarray or q.dtype is not f64 or q.shape != qshape or q.strides != qstrides:
-            q = _coerce(q, dof)
-        try:
-            f = local.ftab
-        except AttributeError:
-            f = mine()
+        if out is None and q.__class__ is ndarray and q.dtype is f64 and q.ndim == 1:
+            out = empty(shape)
+            if not direct(itab, ftab, out, q):  # (True: q is not a contiguous vector of dof values)
+                return out
+        q = _coerce(q, dof)
         if out is None:
             out = empty(shape)
-            direct(itab, f, out, q)
-        else:
-            entry(itab, f, out, q)
+        elif getattr(out, "shape", None) != shape:  # (the compiled entry writes the shape it was bound to)
+            raise KinematicsError(f"out must be an array of shape {shape}, got {getattr(out, 'shape', type(out))}")
+        entry(itab, ftab, out, q)
         return out
 
     return call
@@ -203,7 +241,7 @@ def _bind(entry, itab, ftab, shape, dof):
 def bound_plan_fk(kernel, plan):
     """``f(q, out)`` of :func:`fk_one` for a plan of the batch kernel (the batch path's single
     configuration: ``Kernel.fk`` with one row); ``out`` (L', 4, 4)."""
-    itab, ftab = _tables(kernel, plan.order, 0, plan.lj, plan.pose, kernel.poe.dof)
+    itab, ftab = _tables(kernel, plan.order, 0, plan.lj, plan.pose)
     return _bind(fk_one, itab, ftab, (plan.lj.shape[0], 4, 4), kernel.poe.dof)
 
 
@@ -212,5 +250,5 @@ def bound_path_jacobian(kernel, link_index: int, code: int):
     (the batch path's single configuration: ``Kernel.jacobian`` with one row); ``out`` (6, dof)."""
     path, D = kernel.path_plan(link_index)
     dof = kernel.poe.dof
-    itab, ftab = _tables(kernel, path, code, [], D, dof)
+    itab, ftab = _tables(kernel, path, code, [], D)
     return _bind(jacobian_one, itab, ftab, (6, dof), dof)

@@ -5,17 +5,21 @@ its scratch and result on every call: a few microseconds that dominate when the 
 configuration. :func:`fk_function` and :func:`jacobian_function` do that work once and
 return a plain function of ``q`` (a float64 vector of ``dof`` values) that makes one call of a
 compiled entry (:func:`~kinematics.engine.entries.fk_one`, :func:`~kinematics.engine.entries.jacobian_one`)
-on two packed tables (every argument costs the numba dispatcher time) whose tail is a per-thread
-scratch buffer. The entries compute the axis frames with scalar code that repeats the batch
-kernels' arithmetic operation for operation, then run the batch kernels' own ``_poses_row`` /
-``_jacobian_row``: the answer equals the batch row bit for bit (``tests/kinematics/engine/test_single.py``).
-A batch of one row (``PoEModel.fk`` / ``jacobian`` with one configuration) runs the same entries.
+on two packed tables (every argument costs call time) whose tail is the scratch the frames are
+written to. The entries compute the axis frames with scalar code on the flat tables that repeats
+the batch kernels' arithmetic operation for operation (and the poses of ``_poses_row``, the
+Jacobian columns of ``_jacobian_row``): the answer equals the batch row bit for bit
+(``tests/kinematics/engine/test_single.py``). A batch of one row (``PoEModel.fk`` / ``jacobian``
+with one configuration) runs the same entries.
 
-What bounds it: the compiled work (~0.3 µs for a 6-joint arm on an idle machine), unboxing the
-four arrays into the compiled code (~0.15 µs: a contiguous float64 ``q`` skips numba's dispatcher,
-which typed each argument on every call, and calls the compiled entry's wrapper directly), allocating
-the (4, 4) result (~0.15 µs) and the wrapper's own checks. With ``out=`` the call goes through the
-dispatcher, which checks the given array's type.
+What bounds it: the compiled work (~0.15 µs for a 6-joint arm's pose on an idle machine; it was
+~0.5 µs when the entry built a dozen array views of its tables, each costing as much as a joint's
+arithmetic), unboxing the four arrays into the compiled code (~0.2 µs: a float64 vector ``q``
+skips numba's dispatcher, which typed each argument on every call, and calls the compiled entry's
+wrapper directly; the entry itself refuses a ``q`` of the wrong length or stride, which then takes
+the checked way), allocating the result (~0.1 µs) and the wrapper's own checks. The entries hold
+the GIL (releasing and taking it back would cost more than the work), so every thread shares one
+scratch. With ``out=`` the call goes through the dispatcher, which checks the given array's type.
 ``bench/single.py`` (``python -m bench.run_all --only single``) measures it against Pinocchio's
 single call, with the spread over repeated runs.
 
@@ -55,7 +59,7 @@ def fk_function(poe, links, tool: np.ndarray | None = None):
     """``f(q, out=None)``: the pose ``T_world_link`` (4, 4) of ``links`` (a link name), or the poses
     (L, 4, 4) of a list of links, for one configuration ``q`` (a float64 vector in
     ``joint_names`` order). ``tool``: ``T_link_tool`` (4, 4) applied to every link. Thread-safe
-    (each thread has its own scratch); ``out`` receives the result when given."""
+    (the compiled entry holds the GIL); ``out`` receives the result when given."""
     poe = _compiled(poe)
     kernel = poe.kernel
     one = isinstance(links, str)
@@ -63,7 +67,7 @@ def fk_function(poe, links, tool: np.ndarray | None = None):
     plan = kernel.plan(idx)
     D = with_tool(plan.pose, None if tool is None else np.asarray(tool, dtype=np.float64))
     dof = poe.dof
-    itab, ftab = _tables(kernel, plan.order, 0, plan.lj, D, dof)
+    itab, ftab = _tables(kernel, plan.order, 0, plan.lj, D)
     fk = _bind(fk_one, itab, ftab, (4, 4) if one else (len(idx), 4, 4), dof)
     fk.__doc__ = f"Pose(s) {(4, 4) if one else (len(idx), 4, 4)} of {links!r} of model {poe.model.name!r} for one q ({dof} values)."
     return fk
@@ -80,7 +84,7 @@ def jacobian_function(poe, link: str, reference: str = "world", tool: np.ndarray
     path, D = kernel.path_plan(li)
     D = with_tool(D, None if tool is None else np.asarray(tool, dtype=np.float64))
     dof = poe.dof
-    itab, ftab = _tables(kernel, path, ref, [], D, dof)
+    itab, ftab = _tables(kernel, path, ref, [], D)
     jacobian = _bind(jacobian_one, itab, ftab, (6, dof), dof)
     jacobian.__doc__ = f"Jacobian (6, {dof}) of {link!r} ({reference}) of model {poe.model.name!r} for one q."
     return jacobian

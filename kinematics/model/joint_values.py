@@ -141,7 +141,26 @@ def _from_map(model: RobotModel, values: Mapping, where: str) -> np.ndarray:
 def _scalar(v, where: str, name: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
         raise JointValueError(f"{where}joint {name!r}: value {v!r} is not a number")
-    return float(v)
+    try:
+        return float(v)
+    except OverflowError:  # an int beyond any float
+        raise JointValueError(f"{where}joint {name!r}: an integer of {int(v).bit_length()} bits is beyond "
+                              f"+-{MAX_ABS_JOINT_VALUE:g}") from None
+
+
+def _plain_vector(model: RobotModel, q) -> np.ndarray | None:
+    """``q`` as a (1, nq) array when it is a list of ``nq`` Python floats and ints (what a JSON body
+    gives), else None (then :func:`_from_seq` and the others read it and name what is wrong): the same
+    values as :func:`_from_seq` gives, a few microseconds sooner."""
+    if q.__class__ is not list or len(q) != model.nq:
+        return None
+    for x in q:
+        if x.__class__ is not float and x.__class__ is not int:
+            return None
+    try:
+        return np.array(q, dtype=float)[None, :]
+    except OverflowError:  # an int too large for a float: _from_seq says which joint
+        return None
 
 
 def _from_seq(model: RobotModel, values: Sequence, where: str) -> np.ndarray:
@@ -189,7 +208,10 @@ def as_batch(model: RobotModel, q, normalize: bool = False) -> tuple[np.ndarray,
     joint's value in a name map may be a pose object (:func:`floating_joint_values`).
     """
     q = _pose_values(model, q)
-    if isinstance(q, np.ndarray):
+    Q = _plain_vector(model, q)
+    if Q is not None:  # the most common form, read without the checks below that name what is wrong
+        batch = False
+    elif isinstance(q, np.ndarray):
         if q.dtype.kind not in "fiu":
             raise JointValueError(f"joint values must be numbers, got an array of dtype {q.dtype}")
         if q.ndim == 1:

@@ -221,3 +221,75 @@ def test_a_large_answer_and_a_collision_batch_stop_when_their_request_is_cancell
         with pytest.raises(CancelledError):
             self_collision.check(ur5, np.zeros((3, 6)), pairs=[("shoulder_link", "forearm_link")])
     assert b"".join(dump_parts(content)).startswith(b'{"q":[0,1,2') and list(checked(range(3))) == [0, 1, 2]
+
+
+# ---------------------------------------------------------------------- large JSON counted before its decode
+def test_a_large_json_batch_is_refused_by_its_count_before_it_is_decoded(make_client, monkeypatch):
+    """A body over INLINE_BODY_BYTES (64 KiB; smaller ones are decoded at once) whose batch is over its
+    limit is refused (413 naming the field and the limit) from its items counted in the raw bytes:
+    nothing decodes it (a decode of 10^5 IK targets took gigabytes), in the worker or in its decoder
+    process."""
+    from app import heavy
+    from pydantic import BaseModel
+
+    decoded = []
+    validate = BaseModel.model_validate_json.__func__
+
+    def recording(cls, data, *args, **kwargs):
+        decoded.append((cls.__name__, len(data)))
+        return validate(cls, data, *args, **kwargs)
+
+    monkeypatch.setattr(BaseModel, "model_validate_json", classmethod(recording))
+    client = make_client(decode_process_bytes=0, max_batch=1000, max_measurements=1000)
+    T = _tool0([0.3, -1.0, 1.2, -0.5, 0.8, 0.2])[0].tolist()
+    for path, body, field, limit in (
+            ("/models/ur5/ik", {"link": "tool0", "target": [T] * 1001}, "target", 1000),
+            ("/models/ur5/fk", {"q": [[0.1] * 6] * 5000, "links": ["tool0"]}, "q", 1000),
+            ("/models/ur5/collision", {"q": [[0.1] * 6] * 5000}, "q", 1000),
+            ("/models/ur5/calibrate", {"link": "tool0", "measurements": [
+                {"q": [0.1] * 6, "position": [0.1, 0.2, 0.3]}] * 1500}, "measurements", 1000)):
+        r = client.post(path, json=body)
+        b = _too_large(r, "batch" if field != "measurements" else "measurements", field, limit)
+        assert "counted in the body before decoding it" in b["detail"], b
+    assert decoded == []
+    # at the limit: decoded and answered as before (one target is one item, not its four rows)
+    r = client.post("/models/ur5/ik", json={"link": "tool0", "target": [T] * 1000})
+    assert r.status_code == 200, r.text
+    assert decoded and decoded[-1][0] == "IKRequest"
+    r = client.post("/models/ur5/fk", json={"q": [0.1] * 6, "links": ["tool0"], "pad": " " * 70_000})
+    assert r.status_code == 422 and decoded[-1][0] == "FKRequest"  # a large body with one q: decoded, its field named
+
+
+def test_the_count_of_a_json_bodys_items_matches_its_decode(monkeypatch):
+    """:func:`app.json_count.top_level_counts` against ``json.loads`` on bodies with strings holding
+    brackets, commas, escaped quotes and backslashes, nested values and whitespace, read in chunks of
+    a few bytes (so that every structure and escape straddles a chunk's end)."""
+    import json
+    import random
+
+    from app import json_count
+
+    rnd = random.Random(4)
+    tricky = ['a"b', "c\\", "[", "]", ",", "{", "}", ':"', '\\"', "\\\\", "x" * 30]
+
+    def value(depth):
+        kind = rnd.randrange(6 if depth < 3 else 3)
+        if kind == 0:
+            return rnd.uniform(-1e3, 1e3)
+        if kind == 1:
+            return rnd.choice(tricky) + rnd.choice(tricky)
+        if kind == 2:
+            return rnd.randrange(-5, 5)
+        if kind == 3:
+            return {rnd.choice(tricky): value(depth + 1) for _ in range(rnd.randrange(3))}
+        return [value(depth + 1) for _ in range(rnd.randrange(5))]
+
+    for chunk in (3, 7, 64, 1 << 20):
+        monkeypatch.setattr(json_count, "CHUNK_BYTES", chunk)
+        for _ in range(60):
+            doc = {k: value(0) for k in rnd.sample(["q", "target", "measurements", "links", 'k"q', "x"], 4)}
+            doc["q" if rnd.random() < 0.5 else 'k"q'] = [value(1) for _ in range(rnd.randrange(8))]
+            text = json.dumps(doc, indent=rnd.choice([None, 1])).encode()
+            got = json_count.top_level_counts(text, ("q", "target", "measurements", 'k"q'))
+            want = {k: len(v) for k, v in doc.items() if isinstance(v, list) and k != "links" and k != "x"}
+            assert {k: n for k, (n, _) in got.items()} == want, (chunk, text)

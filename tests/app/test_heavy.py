@@ -108,3 +108,13 @@ def test_long_answers_are_encoded_in_slices_to_the_same_bytes():
     assert responses.dumps(content) == orjson.dumps(content, option=responses._ORJSON_OPTIONS,
                                                     default=responses._default)
     assert len(responses.dump_parts(content)) > 4 and len(responses.dump_parts({"a": [1] * 10})) == 1
+
+
+def test_a_worker_runs_blas_on_one_thread(make_client):
+    """KIN_BLAS_THREADS (default 1): OpenBLAS's threads spin between calls, and one per core kept the
+    cores busy during calibrations while the event loop waited for one (app.heavy.limit_blas_threads)."""
+    from threadpoolctl import threadpool_info
+
+    make_client()
+    blas = [p for p in threadpool_info() if p["user_api"] == "blas"]
+    assert blas and all(p["num_threads"] == 1 for p in blas), blas

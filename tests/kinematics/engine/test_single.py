@@ -53,11 +53,19 @@ def test_tool_out_and_coercion(catalogue):
     assert np.array_equal(J1(np.array(q)[::1]), J1(q))
     with pytest.raises(KinematicsError, match="vector of 6"):
         fk1([0.0] * 5)
+    with pytest.raises(KinematicsError, match="vector of 6"):
+        fk1(np.zeros(7))  # a float64 vector of the wrong length: refused by the compiled entry itself
+    with pytest.raises(KinematicsError, match="vector of 6"):
+        J1(np.zeros((1, 6)))
+    with pytest.raises(KinematicsError, match=r"shape \(4, 4\)"):
+        fk1(q, np.empty((3, 3)))  # the entry writes a (4, 4): never past a smaller out
     with pytest.raises(KinematicsError):
         jacobian_function(poe, "tool0", "sideways")
 
 
-def test_threads_have_their_own_scratch(catalogue):
+def test_threads_sharing_a_bound_function_get_their_own_answers(catalogue):
+    """The entries hold the GIL and share one scratch: threads calling one function at once must still
+    each get their own configuration's pose."""
     model = catalogue.get("panda")
     poe = compile_model(model)
     fk1 = fk_function(poe, "panda_hand_tcp")

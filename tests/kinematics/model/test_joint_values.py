@@ -172,3 +172,18 @@ def test_require_within_limits(planar):
     assert "more" not in message
     with pytest.raises(LimitError, match=r"configuration 0: joint 'q1'.*\(and 1 more\)"):
         require_within_limits(planar, Q[2:])
+
+
+def test_a_plain_list_of_numbers_reads_as_the_checked_way_does(catalogue):
+    """A list of Python floats and ints (a JSON body's q) takes a short way: the same array as the
+    checked reading of a sequence, and every bad value is still refused with the joint named."""
+    from kinematics.model.joint_values import _from_seq
+
+    model = catalogue.get("ur5")
+    for q in ([0.1, -0.5, 0.8, 0.0, 1.2, -0.3], [0, 1, 2, 3, -4, 5], [1e-300, -0.0, 3, 0.5, 1e3, -7]):
+        Q, batch = as_batch(model, q)
+        assert not batch and Q.shape == (1, 6) and Q.tobytes() == _from_seq(model, q, "")[None].tobytes()
+    for bad, match in (([0.0] * 5 + [True], "not a number"), ([0.0] * 5 + [10 ** 400], "joint"),
+                       ([0.0] * 5 + [float("nan")], "not finite"), ([0.0] * 5, "expected 6")):
+        with pytest.raises(JointValueError, match=match):
+            as_batch(model, bad)
