@@ -81,6 +81,12 @@ CONVERGED = 1e-28
 CLOSED_FORM_MIN_ROWS = 64
 #: σ_min / σ_max of the Jacobian below this: a singular configuration
 SINGULAR = 1e-7
+#: a near family's polish is proven complete (:func:`_certified`) only with every solution this regular
+#: (σ_min / σ_max) and this far from the others (rad or m)
+CERTIFY_CONDITION, CERTIFY_SEPARATION = 1e-2, 1e-1
+#: a target with no solution whose closed-form candidates miss it by less than this many deviations of the
+#: near family (m + rad) is at the edge of the reach: not proven complete (:func:`_near_miss`)
+NEAR_MISS = 100.0
 
 
 class Newton(NamedTuple):
@@ -334,17 +340,17 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                     GENERAL_PASS, (position_tolerance, rotation_tolerance))
                 nominal = None
             else:  # candidates, polish, check, duplicates and flags in one compiled pass per target
-                Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(
+                Qk, found, pe, re, within, sing, nominal, seeds = _closed_form_solutions(
                     model, chain, fam, real, T_root, base_q, position_tolerance, rotation_tolerance)
             if fam.near and not general:
-                short = np.flatnonzero(found < nominal)
+                # a near family: proven by the perturbation bound (:func:`_certified`), else checked below
+                short = np.flatnonzero(~_certified(poe, link, tool, chain, fam, Qk, found, nominal))
             else:
                 short = np.zeros(0, dtype=np.intp)
             if not (short.size or degenerate.size) and limits == "ignore" and seed is None:
                 K = int(found.max(initial=0))
                 return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K],
-                                    found >= nominal if nominal is not None else np.ones(N, bool), fam,
-                                    "analytic" if fam.closed_form else "search")
+                                    np.ones(N, bool), fam, "analytic" if fam.closed_form else "search")
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
@@ -356,20 +362,20 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                                    position_tolerance, rotation_tolerance, search_seeds)
         errors = None
     if use_closed and fam.near and not general:
-        # a near family: where the polish found fewer solutions than the ideal chain has (a branch
-        # lost by a singularity or the edge of the reach), the elimination of the real chain (every
-        # solution) joins in for that target, or where it cannot apply, the search
-        complete = found >= nominal
+        # a near family: where the perturbation bound does not prove the polish complete (fewer
+        # solutions than the family's most, a branch lost by a singularity or the edge of the reach),
+        # the elimination of the real chain (every solution) joins in for that target; where it cannot
+        # apply or is not to be trusted, the search, and the target is not claimed complete
+        complete = np.ones(N, bool)
         if short.size:
             rows, owner, proven = _join_elimination(model, chain, real, T_root, short, rows, owner, base_q,
                                                     position_only, position_tolerance, rotation_tolerance)
-            complete[short[proven]] = True
+            proven &= ~_near_miss(poe, link, tool, chain, fam, T_root, base_q, seeds, short, rows, owner)
             rest = short[~proven]
             if rest.size:
                 rows, owner = _join_search(model, link, T_root, rest, rows, owner, base_q, chain, tool, locked, mode,
                                            position_tolerance, rotation_tolerance, search_seeds)
-            found = np.bincount(owner, minlength=N)
-            complete[rest] = found[rest] >= nominal[rest]
+            complete[rest] = False
             errors = None
     if limits == "respect":
         rows, owner = _all_copies(model, chain, rows, owner)
@@ -381,6 +387,62 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
     return _pack(model, poe, link, tool, chain, rows, owner, N, T_root, fam,
                  "analytic" if use_closed and fam.closed_form else "search",
                  complete, position_only, errors)
+
+
+def _certified(poe, link, tool, chain, fam, Qk, found, nominal) -> np.ndarray:
+    """(N,) True where a near family's polished solutions are proven to be every solution of the real chain.
+
+    The bound argument: the real chain's FK differs from the ideal chain's by at most about the
+    family's ``deviation`` everywhere, so a real solution is a configuration where the ideal chain
+    misses the target by that much at most: near an ideal solution (where the ideal Jacobian is
+    regular), or near a fold of the ideal chain (a branch point, a least-squares point of its closed
+    form, where two ideal solutions appear or vanish) within that distance of the target. Where the
+    ideal chain has the family's **most** solutions (every subproblem with both roots), no fold can
+    add two more within that distance, so every real solution continues one ideal solution; the polish
+    found one real solution per ideal one (``found == nominal``), each regular (σ_min / σ_max of the
+    Jacobian at least :data:`CERTIFY_CONDITION`) and the solutions far apart compared with the
+    deviation (at least :data:`CERTIFY_SEPARATION`, rad or m), so no two ideal solutions led to
+    one real solution while another was missed. Anything else (fewer ideal solutions, a solution near
+    a singularity or near another) is left to the elimination of the real chain."""
+    N = len(found)
+    ok = (nominal == fam.max_solutions) & (found == nominal)
+    idx = np.flatnonzero(ok)
+    if not idx.size:
+        return ok
+    K = int(found[idx].max())
+    X = Qk[idx, :K]
+    cols, rev = chain.columns, chain.revolute
+    J = poe.jacobian(X.reshape(-1, X.shape[-1]), link, "local_world_aligned", tool=tool)[:, :, cols]
+    s = np.linalg.svd(J, compute_uv=False).reshape(len(idx), K, -1)
+    regular = np.all(s[..., -1] >= CERTIFY_CONDITION * s[..., 0], axis=1)
+    d = X[:, :, None, cols] - X[:, None, :, cols]
+    d = np.abs(np.where(rev, np.mod(d + np.pi, 2 * np.pi) - np.pi, d)).max(axis=-1)
+    d[:, np.arange(K), np.arange(K)] = np.inf
+    ok[idx] = regular & (d.min(axis=(1, 2)) >= CERTIFY_SEPARATION)
+    return ok
+
+
+def _near_miss(poe, link, tool, chain, fam, T_root, base_q, seeds, targets, rows, owner) -> np.ndarray:
+    """(len(targets),) True where no solution is listed but a closed-form candidate (``seeds``: the
+    candidates and their counts) misses the target by less than :data:`NEAR_MISS` times the family's
+    deviation (m + rad, on the real model): the edge of the reach, where a branch may exist that
+    the elimination (degenerate at a double root) did not give; such a target is not proven."""
+    cand, ccount = seeds
+    out = np.zeros(len(targets), bool)
+    listed = np.bincount(owner, minlength=len(T_root))[targets]
+    empty = np.flatnonzero((listed == 0) & (ccount[targets] > 0))
+    if not empty.size:
+        return out
+    t = targets[empty]
+    X = np.concatenate([cand[n, :ccount[n]] for n in t])
+    who = np.repeat(np.arange(len(t)), ccount[t])
+    Q = base_q[t[who]].copy()
+    Q[:, chain.columns] = -X[:, ::-1] if fam.reversed else X
+    p, r = pose_errors(poe.fk(Q, [link], tool=tool)[:, 0], T_root[t[who]])
+    miss = np.full(len(t), np.inf)
+    np.minimum.at(miss, who, p + r)
+    out[empty] = miss < NEAR_MISS * max(fam.deviation, DUPLICATE)
+    return out
 
 
 def _join_search(model, link, T_root, targets, rows, owner, base_q, chain, tool, locked, mode, position_tolerance,
@@ -538,7 +600,7 @@ def _closed_form_solutions(model, chain, fam, real, T_root, base_q, position_tol
                          (position_tolerance, rotation_tolerance),
                          before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),
                          after=reference if fam.near else None)
-    return out + (nominal,)
+    return out + (nominal, (cand, ccount))
 
 
 def _all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

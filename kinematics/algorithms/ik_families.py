@@ -288,21 +288,33 @@ def _redundant(ch: Chain) -> Family | None:
     return Family("redundant", (), False, None, ch) if ch.n > 6 else None
 
 
+#: the kernels of a closed form by subproblems alone (fast); a chain near one of them is read as near it
+#: rather than exactly as a spherical wrist on a general arm (the elimination or the search)
+SUBPROBLEM_KERNELS = ("spherical_wrist", "three_parallel")
+
+
 def _subproblem_family(ch: Chain) -> Family | None:
-    """The subproblem families of a 6-joint chain (exact first, then near; forwards first, then reversed)."""
+    """The subproblem families of a 6-joint chain (exact first, then near; forwards first, then reversed).
+    A closed form by subproblems alone comes first: a spherical wrist whose arm is within the near
+    tolerances of an intersecting or parallel pair (a URDF's rounded shoulder, a calibrated arm) is
+    that near family, not ``spherical_wrist_general`` (the elimination of the whole chain)."""
     if ch.n != 6:
         return None
+    first = None
     for angle, distance, near in ((EXACT_ANGLE, EXACT_DISTANCE, False), (NEAR_ANGLE, NEAR_DISTANCE, True)):
-        fam = _try_forward(ch, angle, distance)
-        if fam is not None:
-            return replace(fam, near=near)
-        rch = ch.reversed()
-        fam = _try_forward(rch, angle, distance)
-        if fam is not None:
-            name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
-                else fam.name + "_reversed"
-            return replace(fam, name=name, chain=ch, reversed=True, near=near)
-    return None
+        for rev in (False, True):
+            fam = _try_forward(ch.reversed() if rev else ch, angle, distance)
+            if fam is None:
+                continue
+            if rev:
+                name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
+                    else fam.name + "_reversed"
+                fam = replace(fam, name=name, chain=ch, reversed=True)
+            fam = replace(fam, near=near)
+            if fam.kernel in SUBPROBLEM_KERNELS:
+                return fam
+            first = first or fam
+    return first
 
 
 def _short_chain(ch: Chain) -> Family | None:
