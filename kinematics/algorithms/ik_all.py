@@ -461,12 +461,15 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
     of the real chain (:mod:`.ik_general`, every solution) merged in, and a mask (len(targets),) of the
     targets it solved (False: it degenerates there, or does not apply to the chain)."""
     proven = np.zeros(len(targets), bool)
-    if position_only or not ik_general.applies(chain):
+    loop = None if position_only else _elimination_chain(chain)
+    if loop is None:
         return rows, owner, proven
-    cand, counts = ik_general.general_6r_candidates(chain, T_root[targets])
+    reverse = loop is not chain
+    goals = inverse_transform(T_root[targets]) if reverse else T_root[targets]
+    cand, counts = ik_general.general_6r_candidates(loop, goals)
     # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
     Qk, found, *_ = _compiled_pass(model, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
-                                   np.maximum(counts, 0), False, NEAR_PASS, (position_tolerance, rotation_tolerance))
+                                   np.maximum(counts, 0), reverse, NEAR_PASS, (position_tolerance, rotation_tolerance))
     more = [Qk[i, :found[i]] for i in range(len(targets))]
     # trusted where it did not degenerate and found again every solution the closed form's polish found
     # (where it misses one of those, its roots are not to be trusted there: the search joins in)
@@ -475,6 +478,24 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
         proven[i] = counts[i] >= 0 and all(any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])
                                            for q in rows[owner == n])
     return (*_merge(chain, len(T_root), rows, owner, targets, more), proven)
+
+
+#: the chain the elimination runs on, per chain (the chain itself, its reversed chain, or None)
+_loops: dict[int, tuple] = {}
+
+
+def _elimination_chain(chain: Chain) -> Chain | None:
+    """The chain itself where the elimination applies to it (:func:`.ik_general.applies`), else its
+    reversed chain where it applies to that (a lock value can make the loop degenerate one way and
+    not the other: the xArm7 with joint6 locked), else None; kept per chain object."""
+    hit = _loops.get(id(chain))
+    if hit is None or hit[0] is not chain:
+        rch = chain.reversed()
+        loop = chain if ik_general.applies(chain) else rch if ik_general.applies(rch) else None
+        if len(_loops) > FAMILY_CACHE:
+            _loops.clear()
+        hit = _loops[id(chain)] = (chain, loop)
+    return hit[1]
 
 
 def _merge(chain, N, rows, owner, targets, more):

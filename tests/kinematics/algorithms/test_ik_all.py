@@ -180,7 +180,7 @@ def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catal
     model = moved_origins(catalogue.get("ur5"), seed=3)
     Q, T = _targets(model, "tool0", 600, seed=2026)
     chain, fam, real = ik_all._chain_family(model, "tool0", None, None)
-    _, found, *_, nominal = ik_all._closed_form_solutions(model, chain, fam, real, T, np.zeros((len(T), 6)),
+    _, found, *_, nominal, _ = ik_all._closed_form_solutions(model, chain, fam, real, T, np.zeros((len(T), 6)),
                                                           1e-6, 1e-6)
     short = np.flatnonzero(found < nominal)[:6]
     assert short.size >= 2, "the calibration must move some targets across a branch point"
