@@ -84,6 +84,9 @@ SINGULAR = 1e-7
 #: a near family's polish is proven complete (:func:`_certified`) only with every solution this regular
 #: (σ_min / σ_max) and this far from the others (rad or m)
 CERTIFY_CONDITION, CERTIFY_SEPARATION = 1e-2, 1e-1
+#: a listed solution the elimination did not find is a double root (two branches meeting) when the
+#: Jacobian's σ_min / σ_max is below this (the elimination's near-double roots can come out complex)
+DOUBLE_ROOT = 1e-5
 #: a target with no solution whose closed-form candidates miss it by less than this many deviations of the
 #: near family (m + rad) is at the edge of the reach: not proven complete (:func:`_near_miss`)
 NEAR_MISS = 100.0
@@ -461,40 +464,54 @@ def _join_elimination(model, chain, real, T_root, targets, rows, owner, base_q, 
     of the real chain (:mod:`.ik_general`, every solution) merged in, and a mask (len(targets),) of the
     targets it solved (False: it degenerates there, or does not apply to the chain)."""
     proven = np.zeros(len(targets), bool)
-    loop = None if position_only else _elimination_chain(chain)
-    if loop is None:
-        return rows, owner, proven
-    reverse = loop is not chain
-    goals = inverse_transform(T_root[targets]) if reverse else T_root[targets]
-    cand, counts = ik_general.general_6r_candidates(loop, goals)
-    # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
-    Qk, found, *_ = _compiled_pass(model, real, T_root[targets], base_q[targets], np.ascontiguousarray(cand),
-                                   np.maximum(counts, 0), reverse, NEAR_PASS, (position_tolerance, rotation_tolerance))
-    more = [Qk[i, :found[i]] for i in range(len(targets))]
-    # trusted where it did not degenerate and found again every solution the closed form's polish found
-    # (where it misses one of those, its roots are not to be trusted there: the search joins in)
     cols, rev = np.ascontiguousarray(chain.columns, dtype=np.intp), np.ascontiguousarray(chain.revolute)
-    for i, n in enumerate(targets):
-        proven[i] = counts[i] >= 0 and all(any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])
-                                           for q in rows[owner == n])
-    return (*_merge(chain, len(T_root), rows, owner, targets, more), proven)
+    for loop in () if position_only else _elimination_chains(chain):
+        todo = np.flatnonzero(~proven)
+        if not todo.size:
+            break
+        reverse = loop is not chain
+        at = targets[todo]
+        goals = inverse_transform(T_root[at]) if reverse else T_root[at]
+        cand, counts = ik_general.general_6r_candidates(loop, goals)
+        # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
+        Qk, found, *_ = _compiled_pass(model, real, T_root[at], base_q[at], np.ascontiguousarray(cand),
+                                       np.maximum(counts, 0), reverse, NEAR_PASS,
+                                       (position_tolerance, rotation_tolerance))
+        more = [Qk[i, :found[i]] for i in range(len(at))]
+        # trusted where it did not degenerate and found again every solution listed so far but double roots
+        # (where it misses a regular one, its roots are not to be trusted there: the other way round, else
+        # the search); a double root, where two branches meet, is a near-real complex pair of its roots
+        for i, n in enumerate(at):
+            missed = [q for q in rows[owner == n]
+                      if not any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])]
+            proven[todo[i]] = counts[i] >= 0 and (not missed or bool(_double_roots(model, real, chain,
+                                                                                     np.array(missed)).all()))
+        rows, owner = _merge(chain, len(T_root), rows, owner, at, more)
+    return rows, owner, proven
 
 
-#: the chain the elimination runs on, per chain (the chain itself, its reversed chain, or None)
+def _double_roots(model, real, chain, Q) -> np.ndarray:
+    """(K,) True where the chain's Jacobian at ``Q`` (K, dof) is singular to :data:`DOUBLE_ROOT`
+    (σ_min / σ_max): two solutions meeting there."""
+    J = compile_model(model).jacobian(Q, chain.link, "local_world_aligned")[:, :, chain.columns]
+    sv = np.linalg.svd(J, compute_uv=False)
+    return sv[:, -1] <= DOUBLE_ROOT * sv[:, 0]
+
+
+#: the chains the elimination runs on, per chain (itself and its reversed chain, those it applies to)
 _loops: dict[int, tuple] = {}
 
 
-def _elimination_chain(chain: Chain) -> Chain | None:
-    """The chain itself where the elimination applies to it (:func:`.ik_general.applies`), else its
-    reversed chain where it applies to that (a lock value can make the loop degenerate one way and
-    not the other: the xArm7 with joint6 locked), else None; kept per chain object."""
+def _elimination_chains(chain: Chain) -> tuple:
+    """The chain itself and its reversed chain, those the elimination applies to
+    (:func:`.ik_general.applies`; a lock value can make the loop degenerate one way and not the
+    other: the xArm7 with joint6 locked), kept per chain object."""
     hit = _loops.get(id(chain))
     if hit is None or hit[0] is not chain:
-        rch = chain.reversed()
-        loop = chain if ik_general.applies(chain) else rch if ik_general.applies(rch) else None
+        loops = tuple(c for c in (chain, chain.reversed()) if ik_general.applies(c))
         if len(_loops) > FAMILY_CACHE:
             _loops.clear()
-        hit = _loops[id(chain)] = (chain, loop)
+        hit = _loops[id(chain)] = (chain, loops)
     return hit[1]
 
 
