@@ -1,4 +1,5 @@
-"""A 7-joint arm's self-motion against ssik in the same run (``python -m bench.redundancy [n] [whole]``).
+"""A 7-joint arm's self-motion against ssik in the same run
+(``python -m bench.redundancy [n] [whole] [arm,arm]``).
 
 Per arm (the Panda, the LWR, the real iiwa14 URDF of the Robotics Toolbox's data package, the xArm7;
 the default parameter of each): ``n`` random configurations within the limits, their pose as the
@@ -101,12 +102,15 @@ def _pinocchio_worst(model, link, Q, T):
     return worst
 
 
-def run(n: int = 100, whole: int = 3) -> list[str]:
+def run(n: int = 100, whole: int = 3, arms: str = "") -> list[str]:
+    """The table's rows (``arms``: comma-separated names of :data:`ARMS`, empty: all)."""
     cat = default_catalogue()
     lines = ["| arm (parameter) | ssik | ours us per (target, value) | ssik us per (target, value) | ours / ssik | "
              "generating listed | ssik solutions listed by ours | worst error ours / ssik (Pinocchio) | "
              "intervals ms per target ours / ssik 16-sample sweep |", "|" + "---|" * 9]
     for name, link, prebuilt in ARMS:
+        if arms and name not in arms.split(","):
+            continue
         model = iiwa14_model() if name == "iiwa14" else cat.get(name)
         if model is None:
             print(f"{name}: not installed")
@@ -159,4 +163,5 @@ def run(n: int = 100, whole: int = 3) -> list[str]:
 
 
 if __name__ == "__main__":
-    print("\n".join(run(*(int(a) for a in sys.argv[1:]))))
+    args = sys.argv[1:]
+    print("\n".join(run(*(int(a) for a in args[:2]), *args[2:3])))
