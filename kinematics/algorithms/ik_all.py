@@ -81,6 +81,15 @@ CONVERGED = 1e-28
 CLOSED_FORM_MIN_ROWS = 64
 #: σ_min / σ_max of the Jacobian below this: a singular configuration
 SINGULAR = 1e-7
+#: a near family's polish is proven complete (:func:`_certified`) only with every solution this regular
+#: (σ_min / σ_max) and this far from the others (rad or m)
+CERTIFY_CONDITION, CERTIFY_SEPARATION = 1e-2, 1e-1
+#: a listed solution the elimination did not find is a double root (two branches meeting) when the
+#: Jacobian's σ_min / σ_max is below this (the elimination's near-double roots can come out complex)
+DOUBLE_ROOT = 1e-5
+#: a target with no solution whose closed-form candidates miss it by less than this many deviations of the
+#: near family (m + rad) is at the edge of the reach: not proven complete (:func:`_near_miss`)
+NEAR_MISS = 100.0
 
 
 class Newton(NamedTuple):
@@ -390,16 +399,16 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
                     s, np.ascontiguousarray(cand), np.maximum(counts, 0), False, GENERAL_PASS)
                 nominal = None
             else:  # candidates, polish, check, duplicates and flags in one compiled pass per target
-                Qk, found, pe, re, within, sing, nominal = _closed_form_solutions(s)
+                Qk, found, pe, re, within, sing, nominal, seeds = _closed_form_solutions(s)
             if fam.near and not general:
-                short = np.flatnonzero(found < nominal)
+                # a near family: proven by the perturbation bound (:func:`_certified`), else checked below
+                short = np.flatnonzero(~_certified(s, Qk, found, nominal))
             else:
                 short = np.zeros(0, dtype=np.intp)
             if not (short.size or degenerate.size) and limits == "ignore" and seed is None:
                 K = int(found.max(initial=0))
                 return AllSolutions(Qk[:, :K], found, within[:, :K], sing[:, :K] == 1, pe[:, :K], re[:, :K],
-                                    found >= nominal if nominal is not None else np.ones(N, bool), fam,
-                                    "analytic" if fam.closed_form else "search")
+                                    np.ones(N, bool), fam, "analytic" if fam.closed_form else "search")
             slot = np.arange(Qk.shape[1])[None, :] < found[:, None]
             rows, owner, errors = Qk[slot], np.repeat(np.arange(N), found), (pe[slot], re[slot])
     else:
@@ -409,18 +418,18 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         rows, owner = _join_search(s, degenerate, rows, owner)
         errors = None
     if use_closed and fam.near and not general:
-        # a near family: where the polish found fewer solutions than the ideal chain has (a branch
-        # lost by a singularity or the edge of the reach), the elimination of the real chain (every
-        # solution) joins in for that target, or where it cannot apply, the search
-        complete = found >= nominal
+        # a near family: where the perturbation bound does not prove the polish complete (fewer
+        # solutions than the family's most, a branch lost by a singularity or the edge of the reach),
+        # the elimination of the real chain (every solution) joins in for that target; where it cannot
+        # apply or is not to be trusted, the search, and the target is not claimed complete
+        complete = np.ones(N, bool)
         if short.size:
             rows, owner, proven = _join_elimination(s, short, rows, owner)
-            complete[short[proven]] = True
+            proven &= ~_near_miss(s, seeds, short, rows, owner)
             rest = short[~proven]
             if rest.size:
                 rows, owner = _join_search(s, rest, rows, owner)
-            found = np.bincount(owner, minlength=N)
-            complete[rest] = found[rest] >= nominal[rest]
+            complete[rest] = False
             errors = None
     if limits == "respect":
         rows, owner = all_copies(model, chain, rows, owner)
@@ -430,6 +439,63 @@ def all_solutions(model: RobotModel, link: str, targets: np.ndarray, *, base: np
         rows, owner = rows[order], owner[order]
         errors = None if errors is None else (errors[0][order], errors[1][order])
     return _pack(s, rows, owner, "analytic" if use_closed and fam.closed_form else "search", complete, errors)
+
+
+def _certified(s: _Problem, Qk, found, nominal) -> np.ndarray:
+    """(N,) True where a near family's polished solutions are proven to be every solution of the real chain.
+
+    The bound argument: the real chain's FK differs from the ideal chain's by at most about the
+    family's ``deviation`` everywhere, so a real solution is a configuration where the ideal chain
+    misses the target by that much at most: near an ideal solution (where the ideal Jacobian is
+    regular), or near a fold of the ideal chain (a branch point, a least-squares point of its closed
+    form, where two ideal solutions appear or vanish) within that distance of the target. Where the
+    ideal chain has the family's **most** solutions (every subproblem with both roots), no fold can
+    add two more within that distance, so every real solution continues one ideal solution; the polish
+    found one real solution per ideal one (``found == nominal``), each regular (σ_min / σ_max of the
+    Jacobian at least :data:`CERTIFY_CONDITION`) and the solutions far apart compared with the
+    deviation (at least :data:`CERTIFY_SEPARATION`, rad or m), so no two ideal solutions led to
+    one real solution while another was missed. Anything else (fewer ideal solutions, a solution near
+    a singularity or near another) is left to the elimination of the real chain."""
+    poe, link, tool, chain, fam = s.poe, s.link, s.tool, s.chain, s.fam
+    ok = (nominal == fam.max_solutions) & (found == nominal)
+    idx = np.flatnonzero(ok)
+    if not idx.size:
+        return ok
+    K = int(found[idx].max())
+    X = Qk[idx, :K]
+    cols, rev = chain.columns, chain.revolute
+    J = poe.jacobian(X.reshape(-1, X.shape[-1]), link, "local_world_aligned", tool=tool)[:, :, cols]
+    sv = np.linalg.svd(J, compute_uv=False).reshape(len(idx), K, -1)
+    regular = np.all(sv[..., -1] >= CERTIFY_CONDITION * sv[..., 0], axis=1)
+    d = X[:, :, None, cols] - X[:, None, :, cols]
+    d = np.abs(np.where(rev, np.mod(d + np.pi, 2 * np.pi) - np.pi, d)).max(axis=-1)
+    d[:, np.arange(K), np.arange(K)] = np.inf
+    ok[idx] = regular & (d.min(axis=(1, 2)) >= CERTIFY_SEPARATION)
+    return ok
+
+
+def _near_miss(s: _Problem, seeds, targets, rows, owner) -> np.ndarray:
+    """(len(targets),) True where no solution is listed but a closed-form candidate (``seeds``: the
+    candidates and their counts) misses the target by less than :data:`NEAR_MISS` times the family's
+    deviation (m + rad, on the real model): the edge of the reach, where a branch may exist that
+    the elimination (degenerate at a double root) did not give; such a target is not proven."""
+    poe, link, tool, chain, fam, T_root, base_q = s.poe, s.link, s.tool, s.chain, s.fam, s.T_root, s.base_q
+    cand, ccount = seeds
+    out = np.zeros(len(targets), bool)
+    listed = np.bincount(owner, minlength=len(T_root))[targets]
+    empty = np.flatnonzero((listed == 0) & (ccount[targets] > 0))
+    if not empty.size:
+        return out
+    t = targets[empty]
+    X = np.concatenate([cand[n, :ccount[n]] for n in t])
+    who = np.repeat(np.arange(len(t)), ccount[t])
+    Q = base_q[t[who]].copy()
+    Q[:, chain.columns] = -X[:, ::-1] if fam.reversed else X
+    p, r = pose_errors(poe.fk(Q, [link], tool=tool)[:, 0], T_root[t[who]])
+    miss = np.full(len(t), np.inf)
+    np.minimum.at(miss, who, p + r)
+    out[empty] = miss < NEAR_MISS * max(fam.deviation, DUPLICATE)
+    return out
 
 
 def _join_search(s: _Problem, targets: np.ndarray, rows: np.ndarray, owner: np.ndarray):
@@ -447,20 +513,54 @@ def _join_elimination(s: _Problem, targets: np.ndarray, rows: np.ndarray, owner:
     targets it solved (False: it degenerates there, or does not apply to the chain)."""
     chain = s.chain
     proven = np.zeros(len(targets), bool)
-    if s.position_only or not ik_general.applies(chain):
-        return rows, owner, proven
-    cand, counts = ik_general.general_6r_candidates(chain, s.T_root[targets])
-    # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
-    Qk, found, *_ = _compiled_pass(s, np.ascontiguousarray(cand), np.maximum(counts, 0), False, NEAR_PASS,
-                                   rows_of=targets)
-    more = [Qk[i, :found[i]] for i in range(len(targets))]
-    # trusted where it did not degenerate and found again every solution the closed form's polish found
-    # (where it misses one of those, its roots are not to be trusted there: the search joins in)
     cols, rev = np.ascontiguousarray(chain.columns, dtype=np.intp), np.ascontiguousarray(chain.revolute)
-    for i, n in enumerate(targets):
-        proven[i] = counts[i] >= 0 and all(any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])
-                                           for q in rows[owner == n])
-    return (*_merge(chain, s.N, rows, owner, targets, more), proven)
+    for loop in () if s.position_only else _elimination_chains(chain):
+        todo = np.flatnonzero(~proven)
+        if not todo.size:
+            break
+        reverse = loop is not chain
+        at = targets[todo]
+        goals = inverse_transform(s.T_root[at]) if reverse else s.T_root[at]
+        cand, counts = ik_general.general_6r_candidates(loop, goals)
+        # (near a branch point the elimination's roots are less accurate: the near family's Newton budget)
+        Qk, found, *_ = _compiled_pass(s, np.ascontiguousarray(cand), np.maximum(counts, 0), reverse, NEAR_PASS,
+                                       rows_of=at)
+        more = [Qk[i, :found[i]] for i in range(len(at))]
+        # trusted where it did not degenerate and found again every solution listed so far but double roots
+        # (where it misses a regular one, its roots are not to be trusted there: the other way round, else
+        # the search); a double root, where two branches meet, is a near-real complex pair of its roots
+        for i, n in enumerate(at):
+            missed = [q for q in rows[owner == n]
+                      if not any(ik_polish.close_rows(q, m, cols, rev, DUPLICATE) for m in more[i])]
+            proven[todo[i]] = counts[i] >= 0 and (not missed or bool(_double_roots(s, np.array(missed)).all()))
+        rows, owner = _merge(chain, s.N, rows, owner, at, more)
+    return rows, owner, proven
+
+
+def _double_roots(s: _Problem, Q) -> np.ndarray:
+    """(K,) True where the chain's Jacobian at ``Q`` (K, dof) is singular to :data:`DOUBLE_ROOT`
+    (σ_min / σ_max): two solutions meeting there."""
+    chain = s.chain
+    J = s.poe.jacobian(Q, chain.link, "local_world_aligned")[:, :, chain.columns]
+    sv = np.linalg.svd(J, compute_uv=False)
+    return sv[:, -1] <= DOUBLE_ROOT * sv[:, 0]
+
+
+#: the chains the elimination runs on, per chain (itself and its reversed chain, those it applies to)
+_loops: dict[int, tuple] = {}
+
+
+def _elimination_chains(chain: Chain) -> tuple:
+    """The chain itself and its reversed chain, those the elimination applies to
+    (:func:`.ik_general.applies`; a lock value can make the loop degenerate one way and not the
+    other: the xArm7 with joint6 locked), kept per chain object."""
+    hit = _loops.get(id(chain))
+    if hit is None or hit[0] is not chain:
+        loops = tuple(c for c in (chain, chain.reversed()) if ik_general.applies(c))
+        if len(_loops) > FAMILY_CACHE:
+            _loops.clear()
+        hit = _loops[id(chain)] = (chain, loops)
+    return hit[1]
 
 
 def _merge(chain, N, rows, owner, targets, more):
@@ -582,7 +682,7 @@ def _closed_form_solutions(s: _Problem):
     out = _compiled_pass(s, cand, ccount, fam.reversed, NEAR_PASS if fam.near else EXACT_PASS,
                          before=lambda a, b: candidates(a, b, NEAR_SPREAD if fam.near else 0.0, cand, ccount),
                          after=reference if fam.near else None)
-    return out + (nominal,)
+    return out + (nominal, (cand, ccount))
 
 
 def all_copies(model: RobotModel, chain: Chain, rows: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -24,6 +24,7 @@ the closed form of the ideal chain seeds Newton steps on the real one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
@@ -34,7 +35,7 @@ from ..engine.compiled import PRISMATIC
 from ..engine.poe import PoEModel, compile_model
 from ..errors import KinematicsError, LockedJointError, did_you_mean
 from ..model.robot import RobotModel
-from ..spatial.transforms import exp_screws, inverse_transform
+from ..spatial.transforms import cross3, exp_screws, inverse_transform
 from ..tolerances import LIMIT_TOLERANCE
 from . import ik_general
 
@@ -139,18 +140,20 @@ def reduce_chain(model: RobotModel, link: str, locked: dict | None = None, tool:
 # ---------------------------------------------------------------------- geometry of axes
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
     """The angle between the lines of directions a, b (0 when parallel or antiparallel)."""
-    return float(np.arcsin(min(1.0, np.linalg.norm(np.cross(a, b)))))
+    c = cross3(a, b)
+    return math.asin(min(1.0, math.sqrt(float(c @ c))))
 
 
 def _common_point(h: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float]:
-    """The least-squares common point of the lines (r_i, h_i) and its largest distance to them."""
-    A = np.zeros((3, 3)); b = np.zeros(3)
-    for hi, ri in zip(h, r):
-        P = np.eye(3) - np.outer(hi, hi)
-        A += P; b += P @ ri
+    """The least-squares common point of the lines (r_i, h_i) and its largest distance to them:
+    ``Σ (I − h_i h_iᵀ) c = Σ (I − h_i h_iᵀ) r_i``."""
+    h, r = np.asarray(h, dtype=float), np.asarray(r, dtype=float)
+    A = len(h) * np.eye(3) - h.T @ h
+    b = r.sum(axis=0) - h.T @ np.sum(h * r, axis=1)
     c = np.linalg.lstsq(A, b, rcond=None)[0]
-    d = max(float(np.linalg.norm((np.eye(3) - np.outer(hi, hi)) @ (c - ri))) for hi, ri in zip(h, r))
-    return c, d
+    e = c - r
+    e = e - h * np.sum(h * e, axis=1)[:, None]
+    return c, float(np.sqrt(np.max(np.sum(e * e, axis=1))))
 
 
 def _meet(ch: Chain, idx, angle_min: float) -> tuple[np.ndarray, float] | None:
@@ -288,21 +291,33 @@ def _redundant(ch: Chain) -> Family | None:
     return Family("redundant", (), False, None, ch) if ch.n > 6 else None
 
 
+#: the kernels of a closed form by subproblems alone (fast); a chain near one of them is read as near it
+#: rather than exactly as a spherical wrist on a general arm (the elimination or the search)
+SUBPROBLEM_KERNELS = ("spherical_wrist", "three_parallel")
+
+
 def _subproblem_family(ch: Chain) -> Family | None:
-    """The subproblem families of a 6-joint chain (exact first, then near; forwards first, then reversed)."""
+    """The subproblem families of a 6-joint chain (exact first, then near; forwards first, then reversed).
+    A closed form by subproblems alone comes first: a spherical wrist whose arm is within the near
+    tolerances of an intersecting or parallel pair (a URDF's rounded shoulder, a calibrated arm) is
+    that near family, not ``spherical_wrist_general`` (the elimination of the whole chain)."""
     if ch.n != 6:
         return None
+    first = None
     for angle, distance, near in ((EXACT_ANGLE, EXACT_DISTANCE, False), (NEAR_ANGLE, NEAR_DISTANCE, True)):
-        fam = _try_forward(ch, angle, distance)
-        if fam is not None:
-            return replace(fam, near=near)
-        rch = ch.reversed()
-        fam = _try_forward(rch, angle, distance)
-        if fam is not None:
-            name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
-                else fam.name + "_reversed"
-            return replace(fam, name=name, chain=ch, reversed=True, near=near)
-    return None
+        for rev in (False, True):
+            fam = _try_forward(ch.reversed() if rev else ch, angle, distance)
+            if fam is None:
+                continue
+            if rev:
+                name = fam.name.replace("spherical_wrist", "spherical_shoulder") if fam.kernel == "spherical_wrist" \
+                    else fam.name + "_reversed"
+                fam = replace(fam, name=name, chain=ch, reversed=True)
+            fam = replace(fam, near=near)
+            if fam.kernel in SUBPROBLEM_KERNELS:
+                return fam
+            first = first or fam
+    return first
 
 
 def _short_chain(ch: Chain) -> Family | None:

@@ -31,7 +31,7 @@ slices themselves (to :data:`PSI_TOLERANCE`) and optimises an objective along th
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from ..spatial.transforms import exp_screws, inverse_transform
 from ..tolerances import DEFAULT_POSITION_TOLERANCE, DEFAULT_ROTATION_TOLERANCE, LIMIT_TOLERANCE
 from .ik import pose_errors
 from .ik_all import SINGULAR, all_copies, all_solutions  # noqa: F401 (SINGULAR: the answers' flag)
-from .ik_families import Chain, detect, reduce_chain, validate_locked
+from .ik_families import SUBPROBLEM_KERNELS, Chain, detect, reduce_chain, validate_locked
 
 #: what ``select`` optimises: the distance to the seed (least), the normalised limit margin (largest),
 #: Yoshikawa's manipulability √det(J Jᵀ) (largest)
@@ -56,8 +56,6 @@ TRACK_TOLERANCE = 1e-10
 GRID, REFINE_ROUNDS = 64, 10
 #: two solutions on neighbouring grid points are one branch when no joint moved more than this (rad or m)
 MATCH = 0.35
-#: families whose closed form is a product of subproblems (fast; the others are the elimination or a search)
-SUBPROBLEM_KERNELS = ("spherical_wrist", "three_parallel")
 #: configurations sampled to see which joints move along the self-motion
 MOTION_SAMPLES = 64
 #: a joint whose median share of the self-motion (null space of the Jacobian) is below this does not

@@ -188,24 +188,68 @@ def _branches(motion: SelfMotion, samples: dict, bound: str) -> list[Branch]:
     return sorted(done, key=lambda br: (br.psi[0], br.psi[-1]))
 
 
-def _bisect(motion, T_root, jobs, inside):
-    """Bisection of many brackets at once. ``jobs``: lists ``[target, a, b, q_a, m_a]`` where ψ = a holds
-    (``inside(m_a)`` true of the limit margins at q_a) and ψ = b does not; each step solves every midpoint in one batch and follows
-    the branch from q_a to its nearest solution (a lost branch counts as ``inside`` false). Returns
-    the jobs with [a, b] below :data:`PSI_TOLERANCE` (a and q_a the last point that holds)."""
+def _bisect(motion, T_root, jobs, inside, value=None):
+    """Root-finding on many brackets at once. ``jobs``: lists ``[target, a, b, q_a, m_a]`` where ψ = a holds
+    (``inside(m_a)`` true of the limit margins at q_a) and ψ = b does not; each step solves every new
+    point in one batch and follows the branch from q_a to its nearest solution (a lost branch counts as
+    ``inside`` false). Returns the jobs with [a, b] below :data:`PSI_TOLERANCE` (a and q_a the last
+    point that holds).
+
+    Without ``value`` a step halves the bracket. With ``value`` (margins -> a number, continuous along
+    the branch and >= 0 exactly where ``inside`` holds: the smallest limit margin, smooth in ψ on each
+    branch between the joints' crossings) and the margins at b as a sixth entry of each job, a step is
+    the Illinois variant of regula falsi (superlinear; it never leaves the bracket), and the new point
+    c is also tried at c ± PSI_TOLERANCE / 2, which closes the bracket once c is that near the root.
+    A lost branch, or two steps that did not halve the bracket, fall back to halving. (A branch's end,
+    where it meets another, is found by halving: which solution is its partner is not known there.)"""
+    # per job: f(a), f(b), the end that moved last, steps in a row that did not halve the bracket
+    state = {id(j): [value(j[4]), value(j[5]), -1, 0] if value is not None and len(j) > 5 else None for j in jobs}
     for _ in range(MAX_STEPS):
         todo = [j for j in jobs if abs(j[2] - j[1]) > PSI_TOLERANCE]
         if not todo:
             break
-        mids = np.array([(j[1] + j[2]) / 2 for j in todo])
-        sols = _solve(motion, T_root, np.array([j[0] for j in todo]), mids)
-        for j, m, (S, MS) in zip(todo, mids, sols):
+        points, owner, primary, widths = [], [], [], {}
+        for j in todo:
+            st = state[id(j)]
+            a, b = j[1], j[2]
+            widths[id(j)] = abs(b - a)
+            if st is None or st[3] >= 2 or not st[0] > st[1]:
+                points.append((a + b) / 2); owner.append(j); primary.append(True)
+                if st is not None:
+                    st[3] = 0
+                continue
+            c = b - st[1] * (b - a) / (st[1] - st[0])
+            for x, first in ((c, True), (c - PSI_TOLERANCE / 2, False), (c + PSI_TOLERANCE / 2, False)):
+                if min(a, b) < x < max(a, b):
+                    points.append(x); owner.append(j); primary.append(first)
+        sols = _solve(motion, T_root, np.array([j[0] for j in owner]), np.array(points))
+        for j, x, first, (S, MS) in zip(owner, points, primary, sols):
+            if not (min(j[1], j[2]) < x < max(j[1], j[2])):
+                continue  # the bracket already closed past this point
             d = _dist(motion, S, j[3])
             k = int(np.argmin(d)) if len(d) else -1
-            if k >= 0 and d[k] < MATCH and inside(MS[k]):
-                j[1], j[3], j[4] = float(m), S[k], MS[k]
+            found = k >= 0 and d[k] < MATCH
+            st = state[id(j)]
+            if found and inside(MS[k]):
+                j[1], j[3], j[4] = float(x), S[k], MS[k]
+                if st is not None:
+                    st[0] = value(MS[k])
+                    if first and st[2] == 0:
+                        st[1] /= 2  # Illinois: the same end moved twice, the other end's value halved
+                    st[2] = 0 if first else st[2]
             else:
-                j[2] = float(m)
+                j[2] = float(x)
+                if st is not None and not found:
+                    state[id(j)] = None  # the branch is lost there: halving from now on
+                elif st is not None:
+                    st[1] = value(MS[k])
+                    if first and st[2] == 1:
+                        st[0] /= 2
+                    st[2] = 1 if first else st[2]
+        for j in todo:
+            st = state[id(j)]
+            if st is not None:
+                st[3] = st[3] + 1 if abs(j[2] - j[1]) > widths[id(j)] / 2 else 0
     return jobs
 
 
@@ -260,13 +304,15 @@ def intervals(motion: SelfMotion, T_root: np.ndarray, branches: list[list[Branch
                 piece = Piece(b, br.psi[s], br.psi[e], [{"reason": br.start}, {"reason": br.end}],
                               [br.q[s], br.q[e]], [br.m[s], br.m[e]])
                 if s > 0:  # enters the limits between samples s-1 and s
-                    jobs.append([n, br.psi[s], br.psi[s - 1], br.q[s], br.m[s]]); owners.append((piece, 0))
+                    jobs.append([n, br.psi[s], br.psi[s - 1], br.q[s], br.m[s], br.m[s - 1]])
+                    owners.append((piece, 0))
                 if e < len(ok) - 1:
-                    jobs.append([n, br.psi[e], br.psi[e + 1], br.q[e], br.m[e]]); owners.append((piece, 1))
+                    jobs.append([n, br.psi[e], br.psi[e + 1], br.q[e], br.m[e], br.m[e + 1]])
+                    owners.append((piece, 1))
                 pieces[n].append(piece)
                 s = e + 1
     inside = lambda m: m.min() >= 0  # noqa: E731
-    for (piece, side), job in zip(owners, _bisect(motion, T_root, jobs, inside)):
+    for (piece, side), job in zip(owners, _bisect(motion, T_root, jobs, inside, value=lambda m: float(m.min()))):
         at = int(np.argmin(job[4]))
         if side == 0:
             piece.lo = job[1]

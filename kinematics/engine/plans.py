@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spatial.reference import Reference
-from ..spatial.transforms import inverse_transform
+from ..spatial.transforms import cross3, inverse_transform
 from . import compiled, entries
 from . import ik as ik_kernel
 from . import velocity as velocity_kernel
@@ -80,14 +80,14 @@ def axis_frame(w: np.ndarray, r: np.ndarray) -> np.ndarray:
         z[k] = sign
         x = np.zeros(3)
         x[(k + 1) % 3] = 1.0
-        y = np.cross(z, x)
+        y = cross3(z, x)
     else:
         e = np.zeros(3)
         e[int(np.argmin(np.abs(w)))] = 1.0
-        x = np.cross(e, w)
+        x = cross3(e, w)
         x /= np.linalg.norm(x)
         z = w / np.linalg.norm(w)
-        y = np.cross(z, x)
+        y = cross3(z, x)
     G[:3, 0], G[:3, 1], G[:3, 2] = x, y, z
     return G
 

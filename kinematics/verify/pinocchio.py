@@ -447,3 +447,46 @@ def compare_collision(model: RobotModel, Q: np.ndarray, pairs, package_dirs, our
                 worst = max(worst, abs(theirs - float(distances[n])))
     return CollisionAgreement(len(Q), len(Q) - len(mismatches), tuple(mismatches),
                               worst if distances is not None else None)
+
+
+def multistart_solutions(model: RobotModel, link: str, target: np.ndarray, columns, q_fixed: np.ndarray,
+                         seeds: int = 256, steps: int = 80, seed: int = 0, tolerance: float = 1e-10) -> np.ndarray:
+    """An independent reference for every-solution IK: damped Newton on **Pinocchio's** FK and frame
+    Jacobian from ``seeds`` random starts of the joints ``columns`` (revolute: over (−π, π]; the
+    others keep their ``q_fixed`` values), keeping each converged configuration (pose error below
+    ``tolerance``, m and rad) once (angles compared modulo 2π, within 1e-6). A search: it finds what
+    its starts reach, nothing proves it found all. Returns (K, dof), angles in (−π, π]."""
+    ref = reference_for(model)
+    pm, d, fid = ref.pin_model, ref.data(), ref.frame_ids[link]
+    goal = pin.SE3(np.asarray(target, dtype=float))
+    cols = np.asarray(columns, dtype=np.intp)
+    rng = np.random.default_rng(seed)
+    found: list[np.ndarray] = []
+
+    def error(q):
+        pin.framesForwardKinematics(pm, d, ref.to_pinocchio_q(q))
+        return pin.log6(d.oMf[fid].actInv(goal)).vector
+
+    for _ in range(seeds):
+        q = np.array(q_fixed, dtype=float)
+        q[cols] = rng.uniform(-np.pi, np.pi, len(cols))
+        e, lam = error(q), 1e-2
+        for _ in range(steps):
+            if e @ e < tolerance ** 2:
+                break
+            J = ref._fold_columns(np.asarray(pin.computeFrameJacobian(pm, d, ref.to_pinocchio_q(q), fid,
+                                                                       pin.ReferenceFrame.LOCAL)))[:, cols]
+            dq = np.linalg.solve(J.T @ J + lam * np.eye(len(cols)), J.T @ e)
+            trial = q.copy()
+            trial[cols] += dq
+            e2 = error(trial)
+            if e2 @ e2 < e @ e:
+                q, e, lam = trial, e2, max(lam / 4, 1e-12)
+            else:
+                lam = min(lam * 8, 1e6)
+        if e @ e >= tolerance ** 2:
+            continue
+        q[cols] = np.mod(q[cols] + np.pi, 2 * np.pi) - np.pi
+        if not any(np.abs(np.angle(np.exp(1j * (q[cols] - x[cols])))).max() < 1e-6 for x in found):
+            found.append(q)
+    return np.array(found).reshape(-1, len(q_fixed))

@@ -182,7 +182,7 @@ def test_a_calibrated_ur5_where_a_branch_is_lost_gets_every_exact_solution(catal
     chain, fam, real = ik_all._chain_family(model, "tool0", None, None)
     problem = ik_all._Problem(model, compile_model(model), "tool0", None, chain, fam, real, T, np.zeros((len(T), 6)),
                               None, "pose", (1e-6, 1e-6), ik_all.SEARCH_SEEDS)
-    _, found, *_, nominal = ik_all._closed_form_solutions(problem)
+    _, found, *_, nominal, _ = ik_all._closed_form_solutions(problem)
     short = np.flatnonzero(found < nominal)[:6]
     assert short.size >= 2, "the calibration must move some targets across a branch point"
     sol = all_solutions(model, "tool0", T[short], limits="ignore")

@@ -204,3 +204,96 @@ def test_the_best_point_beats_a_dense_sweep(whole, name, objective):
         assert goal.values(motion, b.q, motion.margins(b.q))[0] == pytest.approx(b.value, abs=1e-12)
         p, r = pose_errors(reference_for(motion.model).poses(b.q)[motion.link][None], T[n:n + 1])
         assert p[0] < EXACT and r[0] < EXACT
+
+
+# ---------------------------------------------------------------------------------- a real arm near its family
+#: configurations of the iiwa14 (the Robotics Toolbox data package's URDF) with joint_a7 = -1.371: near a
+#: stretched elbow (joint_a4 about 0.03-0.12); at each, the locked chain (joint_a7) lists none or two of
+#: four solutions within the limits and says the set is complete before the near family is proven
+IIWA_NEAR_ELBOW = [
+    [-0.0324, -0.8721, -2.0376, 0.0328, -0.8982, 0.3224, -1.371],
+    [1.7205, -0.2834, 1.4243, 0.0376, -0.3874, 1.6683, -1.371],
+    [-1.1678, -0.1948, -2.1715, 0.1088, -1.7596, -0.9955, -1.371],
+    [2.8704, -2.0827, -0.796, -0.093, 0.8308, -1.8993, -1.371],
+]
+
+
+@pytest.fixture(scope="module")
+def iiwa14():
+    """The KUKA LBR iiwa 14 R820 URDF shipped by rtb-data: joint_a2 at x = -0.00043624, so its shoulder
+    axes miss each other by 0.44 mm (a near family, not an exact one)."""
+    rtbdata = pytest.importorskip("rtbdata")
+    from pathlib import Path
+
+    from kinematics.io.urdf import load_urdf
+
+    path = Path(rtbdata.__file__).parent / "xacro/kuka_description/kuka_lbr_iiwa/urdf/lbr_iiwa_14_r820.urdf"
+    if not path.exists():
+        pytest.skip("rtb-data ships no iiwa14 URDF here")
+    return load_urdf(path)
+
+
+def _same(a, b, cols):
+    return np.abs(np.angle(np.exp(1j * (a[:, cols] - b[cols])))).max(axis=1).min(initial=np.inf) < 1e-6
+
+
+def _complete_against_multistart(model, link, Q, count, complete, q_gen, T, free):
+    """Where the answer says complete: the generating configuration is listed, every configuration an
+    independent multistart on Pinocchio finds within the limits is listed, and all are exact."""
+    from kinematics.verify.pinocchio import multistart_solutions
+
+    for n in range(len(T)):
+        listed = Q[n, :count[n]]
+        if not complete[n]:
+            continue
+        assert _same(listed, q_gen[n], free), (n, count[n])
+        reference = multistart_solutions(model, link, T[n], free, q_gen[n], seeds=160, seed=n)
+        inside = np.all((reference >= model.lower_limits - 1e-9) & (reference <= model.upper_limits + 1e-9), axis=1)
+        for q in reference[inside]:
+            assert _same(listed, q, free), (n, q, count[n])
+    _exact(model, link, Q, count, T)
+
+
+def test_the_real_iiwa14_near_a_stretched_elbow_with_joint_a7_locked_lists_every_solution(iiwa14):
+    from kinematics.algorithms.ik_all import all_solutions
+
+    q = np.array(IIWA_NEAR_ELBOW)
+    T = compile_model(iiwa14).fk(q, ["tool0"])[:, 0]
+    sol = all_solutions(iiwa14, "tool0", T, locked={"joint_a7": -1.371})
+    assert sol.family.near and sol.family.name == "spherical_shoulder_intersecting_12"
+    assert sol.complete.all()  # proven here (the elimination of the real chain), not merely claimed
+    _complete_against_multistart(iiwa14, "tool0", sol.q, sol.count, sol.complete, q, T, np.arange(6))
+
+
+def test_the_real_iiwa14_slice_at_joint_a7_minus_1_371_is_not_empty(iiwa14):
+    motion = red.SelfMotion(iiwa14, "tool0", "joint_a7")
+    q = np.array(IIWA_NEAR_ELBOW[:2])
+    T = compile_model(iiwa14).fk(q, ["tool0"])[:, 0]
+    Q, P, count, within, singular, pe, re, complete, family, method = red.slices(motion, T, np.full((2, 1), -1.371))
+    assert np.all(count == 4) and complete.all()
+    _complete_against_multistart(iiwa14, "tool0", Q, count, complete, q, T, np.arange(6))
+
+
+def test_the_real_iiwa14_with_joint_a3_locked_is_its_near_closed_form_and_complete(iiwa14):
+    """joint_a3 locked: a spherical wrist on a shoulder whose axes miss by 0.44 mm is the near
+    intersecting family (projected, solved in closed form, polished, proven), not the elimination of a
+    general arm; random targets, and targets near a stretched elbow."""
+    from kinematics.algorithms.ik_all import all_solutions
+    from kinematics.algorithms.ik_families import detect, reduce_chain
+
+    fam = detect(reduce_chain(iiwa14, "tool0", {"joint_a3": 0.4}))
+    assert (fam.name, fam.near, fam.kernel) == ("spherical_wrist_intersecting_12", True, "spherical_wrist")
+    rng = np.random.default_rng(3)
+    lo, hi = iiwa14.lower_limits, iiwa14.upper_limits
+    q = lo + (hi - lo) * rng.random((40, 7))
+    q[:, 2] = 0.4
+    q[20:, 3] = rng.uniform(0.03, 0.12, 20) * rng.choice([-1, 1], 20)
+    T = compile_model(iiwa14).fk(q, ["tool0"])[:, 0]
+    sol = all_solutions(iiwa14, "tool0", T, locked={"joint_a3": 0.4})
+    free = np.array([0, 1, 3, 4, 5, 6])
+    for n in range(40):  # the generating configuration is listed wherever the answer says complete
+        assert not sol.complete[n] or _same(sol.q[n, :sol.count[n]], q[n], free), n
+    assert sol.complete.mean() > 0.9
+    pick = np.r_[0:3, 20:23]
+    _complete_against_multistart(iiwa14, "tool0", sol.q[pick], sol.count[pick], sol.complete[pick], q[pick], T[pick],
+                                 free)
