@@ -393,6 +393,15 @@ class Best:
     branch: int
 
 
+def piece_samples(piece: Piece, branch: Branch) -> tuple[list[float], np.ndarray, np.ndarray]:
+    """The samples of ``branch`` on ``piece``, its ends included, in ψ order: ``(ψ, q, m)``."""
+    idx = [i for i, p in enumerate(branch.psi) if piece.lo < p < piece.hi]
+    psi = [piece.lo] + [branch.psi[i] for i in idx] + [piece.hi]
+    Q = np.array([piece.q[0]] + [branch.q[i] for i in idx] + [piece.q[1]])
+    M = np.array([piece.m[0]] + [branch.m[i] for i in idx] + [piece.m[1]])
+    return psi, Q, M
+
+
 def best(motion: SelfMotion, T_root: np.ndarray, objective: Objective, pieces: list[list[Piece]] | None = None,
          branches: list[list[Branch]] | None = None) -> list[Best | None]:
     """The best point of each target's in-limit self-motion (see the module text)."""
@@ -404,11 +413,7 @@ def best(motion: SelfMotion, T_root: np.ndarray, objective: Objective, pieces: l
     for n, (ps, brs) in enumerate(zip(pieces, branches)):
         top = None
         for piece in ps:
-            br = brs[piece.branch]
-            idx = [i for i, p in enumerate(br.psi) if piece.lo < p < piece.hi]
-            psi = [piece.lo] + [br.psi[i] for i in idx] + [piece.hi]
-            Q = np.array([piece.q[0]] + [br.q[i] for i in idx] + [piece.q[1]])
-            M = np.array([piece.m[0]] + [br.m[i] for i in idx] + [piece.m[1]])
+            psi, Q, M = piece_samples(piece, brs[piece.branch])
             f = objective.values(motion, Q, M)
             for i in range(len(psi)):
                 if (i == 0 or f[i] >= f[i - 1]) and (i == len(psi) - 1 or f[i] >= f[i + 1]):

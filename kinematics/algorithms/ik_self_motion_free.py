@@ -49,11 +49,7 @@ def _samples(motion, objective, pieces, branches) -> list:
     """``(ψ, q, value, piece)`` of every sample of every piece, in ψ order per piece."""
     out = []
     for p, piece in enumerate(pieces):
-        br = branches[piece.branch]
-        idx = [i for i, x in enumerate(br.psi) if piece.lo < x < piece.hi]
-        psi = [piece.lo] + [br.psi[i] for i in idx] + [piece.hi]
-        Q = np.array([piece.q[0]] + [br.q[i] for i in idx] + [piece.q[1]])
-        M = np.array([piece.m[0]] + [br.m[i] for i in idx] + [piece.m[1]])
+        psi, Q, M = sm.piece_samples(piece, branches[piece.branch])
         f = objective.values(motion, Q, M)
         out += [(float(x), q, float(v), p) for x, q, v in zip(psi, Q, f)]
     return out
