@@ -78,6 +78,10 @@ class RequestContext:
         access_log.log(level, "%s %s %d", extra["method"], extra["path"], status, extra=extra)
 
 
+#: a request body this large (bytes): the worker gives the memory freed by its request back to the system
+TRIM_BYTES = 1 << 20
+
+
 class BodySizeLimit:
     """Refuse (413 problem) bodies over ``limit`` bytes: by Content-Length up front, and by count
     while the body is received (chunked uploads)."""
@@ -114,4 +118,12 @@ class BodySizeLimit:
                                        slug="content-too-large", field="body", limit=limit)
             return message
 
-        return await self.app(scope, limited_receive, send)
+        try:
+            return await self.app(scope, limited_receive, send)
+        finally:
+            if received >= TRIM_BYTES:  # a large body's pages back to the system once its request is done
+                import asyncio
+
+                from .heavy import release_freed_memory
+
+                await asyncio.to_thread(release_freed_memory)

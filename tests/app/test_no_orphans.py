@@ -57,3 +57,47 @@ def test_the_processes_a_server_started_end_with_it(tmp_path, sig):
         assert not left, f"left behind after {signal.Signals(sig).name}: {left}\n{live.log()[-2000:]}"
     finally:
         live.kill()
+
+
+def test_the_processes_of_a_failed_start_end_with_it(tmp_path):
+    """A start that fails after the application started (its port is taken: uvicorn's lifespan runs,
+    then the bind fails and the process exits) leaves nothing behind either."""
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    from tests.paths import REPO
+
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen(1)
+    port = taken.getsockname()[1]
+    env = {k: v for k, v in os.environ.items() if not k.startswith("KIN_")}
+    env.update({"KIN_DATA_DIR": str(tmp_path / "data"), "KIN_WARM_UP": "before_serving", "PYTHONUNBUFFERED": "1"})
+    log = open(tmp_path / "uvicorn.log", "wb")
+    proc = subprocess.Popen([sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1", "--port",
+                             str(port)], cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    seen: dict[int, psutil.Process] = {}
+    try:
+        while proc.poll() is None:  # every process it starts, until it exits (the bind fails)
+            try:
+                for p in _started_by(proc.pid):
+                    seen.setdefault(p.pid, p)
+            except psutil.NoSuchProcess:
+                break
+            time.sleep(0.02)
+        assert proc.wait(600) != 0
+        assert seen, "the failed start started nothing: the test would pass blindly"
+        deadline = time.monotonic() + GONE_TIMEOUT
+        while _alive(list(seen.values())) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        text = (tmp_path / "uvicorn.log").read_text(errors="replace")
+        assert "address already in use" in text.lower() or "error while attempting to bind" in text.lower(), text[-2000:]
+        left = [(p.pid, " ".join(p.cmdline())) for p in _alive(list(seen.values()))]
+        assert not left, f"left behind after a failed start: {left}\n{text[-2000:]}"
+    finally:
+        taken.close()
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
