@@ -70,11 +70,11 @@ class CalibrationRequest(ToQuery, BaseModel):
     rotation_weight: Finite = Field(default=1.0, gt=0.0, le=1e3, description="metres per radian of a rotation "
                                                                            "residual (poses): 1 weighs 1 mrad as 1 mm")
     name: Union[str, None] = Field(default=None, max_length=200, description="the calibrated model's name")
-    compliance: Union[bool, ComplianceOption, None] = Field(
+    compliance: Union[Flag, ComplianceOption, None] = Field(
         default=None, description="true or {joints, gravity}: estimate each joint's compliance under gravity too (its "
                                   "value lags by c times the torque it holds, from the URDF's masses; <joint>.compliance "
                                   "in parameters; the calibrated URDF holds the geometric corrections only)")
-    prior: Union[bool, PriorOption, None] = Field(
+    prior: Union[Flag, PriorOption, None] = Field(
         default=None, description="true or {length, angle, compliance, noise}: a maximum a posteriori fit, every "
                                   "joint parameter held near nominal within these standard deviations")
     verify: Flag = Field(default=False, description="also compare the calibrated model's FK with Pinocchio's on the "
