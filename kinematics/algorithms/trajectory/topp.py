@@ -11,9 +11,13 @@ holds at every ``s`` of the interval" into four linear rows per joint that are s
 (``max(u A_lo, u A_hi) + x_i B_hi <= a`` and the like below), so every instant is covered, not
 only the grid points. The velocity limit ``|q'(s)| sdot <= v`` holds on the interval when it
 holds at both ends with ``max |q'|`` over the interval (``x`` is linear, so its largest value is
-at an end). The tool speed ``|J_v(q(s)) q'(s)| sdot <= v_tool`` is bounded the same way with the
-largest tool rate over sub-samples of the interval, tightened by a factor (the caller checks the
-result and tightens further if needed).
+at an end). The tool speed ``|J_v(q(s)) q'(s)| sdot <= v_tool`` is held the same way with a proven
+bound of the tool rate ``w(s) = |dp/ds|`` over the interval (:meth:`ToolRate.bound`): ``w`` is
+Lipschitz with the constant ``L = C (sum_i c_i max|q_i''| + (sum_i c_i max|q_i'|)^2)`` (``C`` the
+chain's reach, ``c_i`` how much joint i drives the chain; the maxima are the interval's exact
+polynomial ranges), so its largest value is at most the largest of ``k + 1`` equally spaced samples
+plus ``L h / (2 k)``; ``k`` grows on the intervals where the tool limits the speed until that term
+is a small fraction of the samples.
 
 Then, as TOPP-RA: a backward pass computes the controllable sets ``[0, X_i]`` (the largest
 ``x_i`` from which the end is reached at rest; each step a two-variable linear programme solved
@@ -23,7 +27,7 @@ controllable. The time of interval ``i`` is ``2 (s_{i+1} - s_i) / (sqrt(x_i) + s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -41,15 +45,42 @@ X_CAP = 1e12
 CHECK_EVERY = 512
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ToolRate:
     """The tool's linear speed per unit path speed: ``rate(Q (K, dof), Qp (K, dof)) -> (K,)``,
-    ``|J_v(q) q'|``, and its limit ``max`` (m/s); ``inflate`` multiplies the bound of each interval."""
+    ``w = |J_v(q) q'|``, and its limit ``max`` (m/s).
+
+    ``reach`` (``C``) and ``weights`` (``c``, (dof,)) bound the second derivative of the tool point
+    along any path: ``|d^2p/ds^2| <= C (sum_i c_i |q_i''| + (sum_i c_i |q_i'|)^2)``. For a serial
+    chain, ``C = max(1, R)`` with ``R`` a bound of the distance from any joint axis of the chain to the
+    tool point (every ``|dp/dtheta|`` and ``|d^2p/dtheta dtheta|`` is at most ``R`` for revolute joints
+    and 1 or 0 with a prismatic one), ``c_i`` the sum of ``|multiplier|`` of the chain's joints
+    driven by joint i (1 for a joint of the chain, 0 off it). An interval's bound samples ``w`` at
+    ``subsamples + 1`` points, more (up to ``most_subsamples``) where the Lipschitz term exceeds
+    ``tolerance`` of the samples' largest value and the tool limits the speed."""
 
     rate: Callable[[np.ndarray, np.ndarray], np.ndarray]
     max: float
-    inflate: float = 1.001
+    reach: float
+    weights: np.ndarray
     subsamples: int = 4
+    most_subsamples: int = 1024
+    tolerance: float = 1e-3
+
+    def lipschitz(self, qp_max: np.ndarray, qpp_max: np.ndarray) -> np.ndarray:
+        """(K,) a Lipschitz constant of ``w`` in ``s`` where ``|q'| <= qp_max`` and ``|q''| <= qpp_max`` (K, dof)."""
+        return self.reach * (qpp_max @ self.weights + (qp_max @ self.weights) ** 2)
+
+    def sampled(self, path: PiecewisePath, s0: np.ndarray, s1: np.ndarray, k: int) -> np.ndarray:
+        """(K,) the largest ``w`` of ``k + 1`` equally spaced samples of each ``[s0, s1]`` (K,)."""
+        ss = (s0[:, None] + (s1 - s0)[:, None] * np.linspace(0.0, 1.0, k + 1)).ravel()
+        return self.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s0), k + 1).max(axis=1)
+
+    def bound(self, path: PiecewisePath, s0: np.ndarray, s1: np.ndarray, L: np.ndarray, k: int) -> np.ndarray:
+        """(K,) a bound of ``w`` at every ``s`` of each ``[s0, s1]`` (K,) where ``L`` (K,) is a Lipschitz
+        constant of ``w``: the largest of ``k + 1`` samples plus ``L (s1 - s0) / (2 k)`` (every ``s`` lies
+        within half a step of a sample)."""
+        return self.sampled(path, s0, s1, k) + L * (s1 - s0) / (2 * k)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,7 +119,7 @@ def grid(path: PiecewisePath, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.ndarray):
     """The linear rows ``cu u + cx x_i <= r`` (each (N, 4 dof)) that keep every joint's acceleration
-    within ``a`` over each whole interval, and ``max |q'|`` (N, dof) over each interval."""
+    within ``a`` over each whole interval, and ``max |q'|``, ``max |q''|`` (N, dof) over each interval."""
     c = path.coeffs[piece]  # (N, D + 1, dof)
     t0 = (s[:-1] - path.breaks[piece])[:, None]
     t1 = (s[1:] - path.breaks[piece])[:, None]
@@ -108,7 +139,7 @@ def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.n
     cu = np.concatenate([Ahi, Alo, -Alo, -Ahi], axis=1)
     cx = np.concatenate([Bhi, Bhi, -Blo, -Blo], axis=1)
     r = np.tile(a, 4)[None].repeat(len(c), axis=0)
-    return cu, cx, r, np.maximum(np.abs(lo1), np.abs(hi1))
+    return cu, cx, r, np.maximum(np.abs(lo1), np.abs(hi1)), np.maximum(np.abs(Blo), np.abs(Bhi))
 
 
 def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -117,15 +148,30 @@ def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.minimum(np.min(np.where(qp_max > 0, (v / qp_max) ** 2, np.inf), axis=1), X_CAP)
 
 
-def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate) -> np.ndarray:
-    """(N,) the largest ``x`` on each interval that keeps the tool's speed within its limit (sampled
-    at ``tool.subsamples + 1`` points of each interval, the largest rate inflated)."""
-    k = tool.subsamples
-    frac = np.linspace(0.0, 1.0, k + 1)
-    ss = (s[:-1, None] + np.diff(s)[:, None] * frac).ravel()
-    w = tool.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s) - 1, k + 1).max(axis=1) * tool.inflate
+def speed_cap(w: np.ndarray, vmax: float) -> np.ndarray:
+    """The largest ``x = sdot^2`` that keeps ``w sdot`` within ``vmax`` (``X_CAP`` where ``w`` is 0)."""
     with np.errstate(divide="ignore", over="ignore"):
-        return np.minimum(np.where(w > 0, (tool.max / w) ** 2, np.inf), X_CAP)
+        return np.minimum(np.where(w > 0, (vmax / np.maximum(w, 0.0)) ** 2, np.inf), X_CAP)
+
+
+def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate, qp_max: np.ndarray, qpp_max: np.ndarray,
+               xint: np.ndarray) -> np.ndarray:
+    """(N,) the largest ``x`` on each interval that keeps the tool's speed within ``tool.max`` at every
+    ``s`` of it (:meth:`ToolRate.bound` with the interval's ``max |q'|``, ``max |q''|``). Where that
+    cap is below ``xint`` (the tool limits the speed there) and the Lipschitz term is over
+    ``tool.tolerance`` of the samples, the interval is sampled 4 times more densely, up to
+    ``tool.most_subsamples``."""
+    L = tool.lipschitz(qp_max, qpp_max)
+    k = tool.subsamples
+    w = tool.sampled(path, s[:-1], s[1:], k)
+    bound = w + L * np.diff(s) / (2 * k)
+    todo = np.flatnonzero((L * np.diff(s) / (2 * k) > tool.tolerance * w) & (speed_cap(bound, tool.max) < xint))
+    while todo.size and 4 * k <= tool.most_subsamples:
+        check()
+        k *= 4
+        bound[todo] = tool.bound(path, s[todo], s[todo + 1], L[todo], k)
+        todo = todo[(L[todo] * (s[todo + 1] - s[todo]) / (2 * k) > tool.tolerance * bound[todo])]
+    return speed_cap(bound, tool.max)
 
 
 def backward(cu, cx, r, xmax, ds) -> np.ndarray:
@@ -169,11 +215,10 @@ def topp(path: PiecewisePath, velocity: np.ndarray, acceleration: np.ndarray, n:
     scale = 1.0 - LIMIT_MARGIN
     s, piece = grid(path, n)
     ds = np.diff(s)
-    cu, cx, r, qp_max = interval_rows(path, s, piece, np.asarray(acceleration, float) * scale)
+    cu, cx, r, qp_max, qpp_max = interval_rows(path, s, piece, np.asarray(acceleration, float) * scale)
     xint = velocity_bound(qp_max, np.asarray(velocity, float) * scale)
     if tool is not None:
-        xint = np.minimum(xint, tool_bound(path, s, ToolRate(tool.rate, tool.max * scale, tool.inflate,
-                                                             tool.subsamples)))
+        xint = np.minimum(xint, tool_bound(path, s, replace(tool, max=tool.max * scale), qp_max, qpp_max, xint))
     xmax = np.minimum(np.r_[xint, xint[-1]], np.r_[xint[0], xint])  # both neighbouring intervals
     X = backward(cu, cx, r, xmax, ds)
     x, u = forward(cu, cx, r, X, ds)

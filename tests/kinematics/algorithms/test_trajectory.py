@@ -142,8 +142,9 @@ def test_linear_without_blend_stops_at_each_corner():
 
 def test_tool_speed_is_held():
     # a "tool" whose speed is |M q'| for a fixed matrix: the bound must hold at every sample
+    # (|d^2p/ds^2| = |M q''| <= |M|_2 sum |q''|)
     Mx = np.random.default_rng(3).normal(size=(3, 6))
-    tool = ToolRate(lambda Q, Qp: np.linalg.norm(Qp @ Mx.T, axis=1), 0.5)
+    tool = ToolRate(lambda Q, Qp: np.linalg.norm(Qp @ Mx.T, axis=1), 0.5, np.linalg.norm(Mx, 2), np.ones(6))
     path = spline_path(waypoints(4))
     timing = plan(path, V, A, tool=tool)
     free = plan(path, V, A)
