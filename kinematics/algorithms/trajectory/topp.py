@@ -55,7 +55,9 @@ class ToolRate:
     chain, ``C = max(1, R)`` with ``R`` a bound of the distance from any joint axis of the chain to the
     tool point (every ``|dp/dtheta|`` and ``|d^2p/dtheta dtheta|`` is at most ``R`` for revolute joints
     and 1 or 0 with a prismatic one), ``c_i`` the sum of ``|multiplier|`` of the chain's joints
-    driven by joint i (1 for a joint of the chain, 0 off it). An interval's bound samples ``w`` at
+    driven by joint i (1 for a joint of the chain, 0 off it). ``q'`` is continuous along a path
+    timed from rest to rest (a part between stops), so ``w`` is continuous and the bound holds
+    across the path's breakpoints. An interval's bound samples ``w`` at
     ``subsamples + 1`` points, more (up to ``most_subsamples``) where the Lipschitz term exceeds
     ``tolerance`` of the samples' largest value and the tool limits the speed."""
 
