@@ -21,11 +21,11 @@ arithmetic, the intervals that may hold the peak split until the bound is within
 :data:`BOUND_TOLERANCE` of a value the motion takes), so every limit holds at every instant, not
 only at samples. The tool's speed, where limited, is bounded on the same intervals: at most
 ``max w(s) * max sdot`` with ``w = |J_v(q) q'|`` bounded over the interval's ``s`` range by its
-values at the ends and its Lipschitz constant (:meth:`.topp.ToolRate.bound`, with the path's exact
-``q'`` and ``q''`` ranges), so it too holds at every instant. The acceleration fraction given to the time-optimal
-profile, the filter length and a cap of the profile's velocity are searched over a small grid
-(:data:`FRACTIONS`, :data:`WIDTHS`, :data:`VELOCITY_CAPS`) and around its best (:data:`REFINE`),
-the shortest result kept; a candidate whose values at its
+values at the ends and bounds of the tool point's derivatives (:meth:`.topp.ToolRate.bound`, with
+the path's exact ``q'``, ``q''``, ``q'''`` ranges), so it too holds at every instant. The acceleration
+fraction given to the time-optimal profile, the filter length and a cap of the profile's velocity
+are searched over a small grid (:data:`FRACTIONS`, :data:`WIDTHS`, :data:`VELOCITY_CAPS`) and
+around its best (:data:`REFINE`), the shortest result kept; a candidate whose values at its
 breakpoints already need a longer motion than the best is dropped before its bound is computed.
 """
 
@@ -160,8 +160,8 @@ def motion_bound(path: PiecewisePath, f: FilteredProfile, ta: np.ndarray, tb: np
     if tool is None:
         return out
     s_lo, s_hi = np.minimum(s_a, s_b), np.maximum(s_a, s_b)
-    L = tool.lipschitz(np.maximum(np.abs(q1[0]), np.abs(q1[1])), np.maximum(np.abs(q2[0]), np.abs(q2[1])))
-    return out + ((tool.bound(path, s_lo, s_hi, L, 1) * sd_hi[:, 0])[:, None],)
+    ranges = tuple(np.maximum(np.abs(lo), np.abs(hi)) for lo, hi in (q1, q2, q3))
+    return out + ((tool.bound(path, s_lo, s_hi, ranges, 1) * sd_hi[:, 0])[:, None],)
 
 
 def motion_values(path: PiecewisePath, f: FilteredProfile, t: np.ndarray, tool: ToolRate | None = None):
