@@ -336,8 +336,6 @@ def test_jerk_limited_tool_speed_held_at_every_instant(n):
     f = jerk_limited(path, *FAST, n, tool)
     ratio = dense_tool_ratio(path, f, tool)
     assert 0.99 < ratio <= 1.0, ratio  # the tool's speed is what limits it, and never over its limit
-    t = np.linspace(0.0, f.duration, 20001)
-    ta, tb = t[:-1], t[1:]
     # per interval between breakpoints, the proven bound of the tool's speed encloses fine samples
     bp = np.unique(np.r_[0.0, f.breakpoints(), f.duration])
     bp = bp[bp <= f.duration]
