@@ -163,19 +163,59 @@ def check_path_limits(model: RobotModel, path: PiecewisePath, names: Sequence[st
     # a linear path stays in the convex hull of its waypoints: within the limits when they are
 
 
-def tool_rate(query: Query, tool: ToolSpeed) -> ToolRate:
-    """``|J_v(q) q'|`` of the tool's link origin (or point), world axes."""
-    if not np.isfinite(tool.max) or tool.max <= 0:
-        raise TrajectoryError(f"limits.tool_speed.max: {tool.max:g}; give a positive speed in m/s")
+def tool_rate(query: Query, tool: ToolSpeed, path: PiecewisePath, W: np.ndarray) -> ToolRate:
+    """``|J_v(q) q'|`` of the tool's link origin (or point), world axes, with the chain's reach and
+    joint weights that bound its second derivative along ``path`` (:func:`chain_reach`)."""
     poe = compile_model(query.robot)
-    poe.link_indices([tool.link])
     T = tool_offset(tool.point, None)
 
     def rate(Q: np.ndarray, Qp: np.ndarray) -> np.ndarray:
         J = poe.jacobian(Q, tool.link, Reference.LOCAL_WORLD_ALIGNED, tool=T)[:, :3, :]
         return np.linalg.norm(np.einsum("kij,kj->ki", J, Qp), axis=1)
 
-    return ToolRate(rate, float(tool.max))
+    offset = 0.0 if T is None else float(np.linalg.norm(T[:3, 3]))
+    reach, weights = chain_reach(query.robot, tool.link, offset, path_extent(path, W))
+    return ToolRate(rate, float(tool.max), reach, weights)
+
+
+def check_tool_speed(model: RobotModel, tool: ToolSpeed) -> None:
+    """Refuse a tool speed limit that is not a positive number or names a link the model lacks."""
+    if not np.isfinite(tool.max) or tool.max <= 0:
+        raise TrajectoryError(f"limits.tool_speed.max: {tool.max:g}; give a positive speed in m/s")
+    model.link_indices([tool.link])
+
+
+def path_extent(path: PiecewisePath, W: np.ndarray) -> np.ndarray:
+    """(dof,) the largest ``|q_i|`` along ``path``: exact for cubic pieces, else the waypoints' (a
+    linear path stays in their convex hull)."""
+    if path.coeffs.shape[1] <= 4:
+        t1 = np.diff(path.breaks)[:, None]
+        lo, hi = poly_range(path.coeffs, np.zeros_like(t1), t1)
+        return np.maximum(np.abs(lo), np.abs(hi)).max(axis=0)
+    return np.abs(W).max(axis=0)
+
+
+def chain_reach(model: RobotModel, link: str, offset: float, extent: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(C, c)`` of :class:`~kinematics.algorithms.trajectory.topp.ToolRate` for the chain from the root
+    to ``link`` and a tool point ``offset`` from its origin: ``R`` the sum of the norms of the joint
+    origins after the chain's first moving joint, the offset and each prismatic joint's largest
+    ``|q|`` (``extent`` (dof,) per joint of q, through its mimic multiplier), ``C = max(1, R)``;
+    ``c_i`` the sum of ``|multiplier|`` of the chain's moving joints that joint i drives."""
+    weights = np.zeros(len(model.joint_names))
+    index = model.q_index
+    R = offset
+    moved = False
+    for joint in model.path_joints(link):
+        if moved:
+            R += float(np.linalg.norm(joint.origin[:3, 3]))
+        if not joint.moving:
+            continue
+        moved = True
+        leader, mult, off = model.resolve_mimic(joint) or (joint.name, 1.0, 0.0)
+        weights[index[leader]] += abs(mult)
+        if joint.type == "prismatic":
+            R += abs(mult) * float(extent[index[leader]]) + abs(off)
+    return max(1.0, R), weights
 
 
 def trajectory(query: Query | RobotModel, waypoints: Any, limits: TrajectoryLimits, interpolation: str = "spline",
@@ -207,9 +247,11 @@ def trajectory(query: Query | RobotModel, waypoints: Any, limits: TrajectoryLimi
         raise TrajectoryError("limits.acceleration is required (a robot description has no acceleration limits)")
     acceleration = per_joint(limits.acceleration, names, "acceleration")
     jerk = per_joint(limits.jerk, names, "jerk")
-    tool = tool_rate(query, limits.tool_speed) if limits.tool_speed is not None else None
+    if limits.tool_speed is not None:
+        check_tool_speed(model, limits.tool_speed)
     path = spline_path(W) if interpolation == "spline" else linear_path(W, blend)
     check_path_limits(model, path, names, W)
+    tool = tool_rate(query, limits.tool_speed, path, W) if limits.tool_speed is not None else None
     timing = plan(path, velocity, acceleration, jerk, grid_points, tool)
     sampling.check(rate, timing.duration)
     n = int(np.floor(timing.duration * rate)) + 2

@@ -19,11 +19,13 @@ the motion (:func:`motion_bound`: the filtered motion is a cubic in time between
 breakpoints, the path a piecewise polynomial with exact derivative ranges, combined by interval
 arithmetic, the intervals that may hold the peak split until the bound is within
 :data:`BOUND_TOLERANCE` of a value the motion takes), so every limit holds at every instant, not
-only at samples. The tool's speed, where limited, is sampled (its Jacobian has no such bound
-here) and held below ``1 - TOOL_MARGIN``. The acceleration fraction given to the time-optimal
-profile, the filter length and a cap of the profile's velocity are searched over a small grid
-(:data:`FRACTIONS`, :data:`WIDTHS`, :data:`VELOCITY_CAPS`) and around its best (:data:`REFINE`),
-the shortest result kept; a candidate whose values at its
+only at samples. The tool's speed, where limited, is bounded on the same intervals: at most
+``max w(s) * max sdot`` with ``w = |J_v(q) q'|`` bounded over the interval's ``s`` range by its
+values at the ends and bounds of the tool point's derivatives (:meth:`.topp.ToolRate.bound`, with
+the path's exact ``q'``, ``q''``, ``q'''`` ranges), so it too holds at every instant. The acceleration
+fraction given to the time-optimal profile, the filter length and a cap of the profile's velocity
+are searched over a small grid (:data:`FRACTIONS`, :data:`WIDTHS`, :data:`VELOCITY_CAPS`) and
+around its best (:data:`REFINE`), the shortest result kept; a candidate whose values at its
 breakpoints already need a longer motion than the best is dropped before its bound is computed.
 """
 
@@ -50,10 +52,6 @@ REFINE = ((0.93, 1.0, 1.07), (0.8, 1.0, 1.25), (0.93, 1.07))
 #: :data:`CAP_WIDTH`: the filter is then as long as the acceleration takes to rise at the jerk limit)
 VELOCITY_CAPS = (0.9, 0.8, 0.7, 0.6)
 CAP_WIDTH = 0.5
-#: the tool's sampled speed is held below ``1 - TOOL_MARGIN`` of its limit (the motion between samples)
-TOOL_MARGIN = 2e-3
-#: uniform samples of the motion where the tool's speed is checked (its breakpoints are added)
-TOOL_SAMPLES = 20000
 #: the proven time scale is within this fraction of the motion's true peak ratio (see :func:`proven_scale`)
 BOUND_TOLERANCE = 1e-4
 #: the intervals that may hold the peak are cut into ``SPLIT`` parts, at most ``SPLIT_ROUNDS`` times
@@ -129,10 +127,13 @@ def product(a, b):
     return p.min(axis=0), p.max(axis=0)
 
 
-def motion_bound(path: PiecewisePath, f: FilteredProfile, ta: np.ndarray, tb: np.ndarray):
+def motion_bound(path: PiecewisePath, f: FilteredProfile, ta: np.ndarray, tb: np.ndarray,
+                 tool: ToolRate | None = None):
     """``(|qd|, |qdd|, |qddd|)``, each (K, dof): bounds of every joint's velocity, acceleration and jerk
     over each closed time interval ``[ta, tb]`` (K,) lying between two consecutive
-    :meth:`FilteredProfile.breakpoints`, valid at every instant of it, not at samples.
+    :meth:`FilteredProfile.breakpoints`, valid at every instant of it, not at samples; with ``tool``,
+    a fourth (K, 1): a bound of the tool's speed there, ``max w * max sdot`` (``w`` bounded over the
+    ``s`` range by :meth:`.topp.ToolRate.bound` from its two ends).
 
     There the path jerk is a constant ``j0``, so ``sddot`` is linear (its range: the ends), ``sdot``
     quadratic (the ends and the vertex) and ``s`` monotone (``[s_a, s_b]``). Over that ``s`` range
@@ -155,19 +156,36 @@ def motion_bound(path: PiecewisePath, f: FilteredProfile, ta: np.ndarray, tb: np
              [product(q2, (sd_lo**2, sd_hi**2)), product(q1, sdd)],
              [product(q3, (sd_lo**3, sd_hi**3)), product(q2, (3 * sd_sdd[0], 3 * sd_sdd[1])),
               product(q1, (j0[:, None], j0[:, None]))]]
-    return tuple(np.maximum(np.abs(sum(lo for lo, _ in ts)), np.abs(sum(hi for _, hi in ts))) for ts in terms)
+    out = tuple(np.maximum(np.abs(sum(lo for lo, _ in ts)), np.abs(sum(hi for _, hi in ts))) for ts in terms)
+    if tool is None:
+        return out
+    s_lo, s_hi = np.minimum(s_a, s_b), np.maximum(s_a, s_b)
+    ranges = tuple(np.maximum(np.abs(lo), np.abs(hi)) for lo, hi in (q1, q2, q3))
+    return out + ((tool.bound(path, s_lo, s_hi, ranges, 1) * sd_hi[:, 0])[:, None],)
+
+
+def motion_values(path: PiecewisePath, f: FilteredProfile, t: np.ndarray, tool: ToolRate | None = None):
+    """The values :func:`motion_bound` bounds, at times ``t`` (K,): ``(qd, qdd, qddd[, tool speed (K, 1)])``."""
+    s, sd, sdd, sddd = f.at(t)
+    out = joint_motion(path, s, sd, sdd, sddd)[1:]
+    if tool is None:
+        return out
+    return out + ((tool.rate(path.q(s), path.derivative(s, 1)) * sd)[:, None],)
 
 
 def limit_ratio(values, limits) -> np.ndarray:
     """(K,) the time scale each row needs: the largest of ``|qd| / v``, ``sqrt(|qdd| / a)``,
-    ``cbrt(|qddd| / j)`` over the joints, from ``values`` ``(|qd|, |qdd|, |qddd|)`` each (K, dof)."""
+    ``cbrt(|qddd| / j)`` over the joints, from ``values`` ``(|qd|, |qdd|, |qddd|)`` each (K, dof)
+    (and, with a fourth value and limit, ``|tool speed| / v_tool``: a speed, as ``qd``)."""
+    orders = (1, 2, 3, 1)
     return np.max([np.max(np.abs(x) / lim, axis=1) ** (1.0 / order)
-                   for order, (x, lim) in enumerate(zip(values, limits), start=1)], axis=0)
+                   for order, x, lim in zip(orders, values, limits)], axis=0)
 
 
 def proven_scale(path: PiecewisePath, f: FilteredProfile, limits, tolerance: float = BOUND_TOLERANCE,
-                 ceiling: float = np.inf) -> float:
-    """The time scale that brings every joint limit of ``f`` to at most 1 at every instant: the largest
+                 ceiling: float = np.inf, tool: ToolRate | None = None) -> float:
+    """The time scale that brings every joint limit of ``f`` (and ``tool``'s speed) to at most 1 at
+    every instant: the largest
     :func:`limit_ratio` of :func:`motion_bound` over intervals covering ``[0, f.duration]``, the
     intervals that could hold the peak split (:data:`SPLIT` ways, at most :data:`SPLIT_ROUNDS` times)
     until their bound is within ``tolerance`` of the largest value met at their ends (a lower bound
@@ -178,11 +196,13 @@ def proven_scale(path: PiecewisePath, f: FilteredProfile, limits, tolerance: flo
     t = t[(t >= 0.0) & (t <= f.duration)]
     ta, tb = t[:-1], t[1:]
     done = 0.0  # the largest bound of the intervals settled
-    peak = float(np.max(limit_ratio(joint_motion(path, *f.at(t))[1:], limits)))
+    if tool is not None:
+        limits = tuple(limits) + (np.array([tool.max]),)
+    peak = float(np.max(limit_ratio(motion_values(path, f, t, tool), limits)))
     if peak > ceiling:
         return np.inf
     for _ in range(SPLIT_ROUNDS):
-        bound = limit_ratio(motion_bound(path, f, ta, tb), limits)
+        bound = limit_ratio(motion_bound(path, f, ta, tb, tool), limits)
         open_ = bound > peak * (1.0 + tolerance)
         done = max(done, float(np.max(bound[~open_], initial=0.0)))
         if not open_.any():
@@ -190,23 +210,16 @@ def proven_scale(path: PiecewisePath, f: FilteredProfile, limits, tolerance: flo
         ta, tb = ta[open_], tb[open_]
         cut = ta[:, None] + (tb - ta)[:, None] * (np.arange(SPLIT + 1) / SPLIT)
         ta, tb = cut[:, :-1].ravel(), cut[:, 1:].ravel()
-        peak = max(peak, float(np.max(limit_ratio(joint_motion(path, *f.at(tb))[1:], limits))))
-    return max(done, float(np.max(limit_ratio(motion_bound(path, f, ta, tb), limits))))
+        peak = max(peak, float(np.max(limit_ratio(motion_values(path, f, tb, tool), limits))))
+    return max(done, float(np.max(limit_ratio(motion_bound(path, f, ta, tb, tool), limits))))
 
 
 def required_scale(path: PiecewisePath, f: FilteredProfile, velocity, acceleration, jerk,
                    tool: ToolRate | None, ceiling: float = np.inf) -> float:
     """The time scale ``k`` that brings ``f``'s proven bound (:func:`proven_scale`) to the tightest
-    joint limit, and the tool's speed (sampled: :data:`TOOL_SAMPLES` uniform samples and the
-    breakpoints, held below ``1 - TOOL_MARGIN``) to its limit; over ``1 - LIMIT_MARGIN`` (rounding).
+    joint limit or the tool's speed limit; over ``1 - LIMIT_MARGIN`` (rounding).
     Infinity as soon as it is seen to exceed ``ceiling``."""
-    k = proven_scale(path, f, (velocity, acceleration, jerk), ceiling=ceiling)
-    if not np.isfinite(k):
-        return k
-    if tool is not None:
-        t = np.unique(np.r_[np.linspace(0.0, f.duration, TOOL_SAMPLES), f.breakpoints()])
-        s, sd, _, _ = f.at(t[t <= f.duration])
-        k = max(k, np.max(tool.rate(path.q(s), path.derivative(s, 1)) * sd) / tool.max / (1.0 - TOOL_MARGIN))
+    k = proven_scale(path, f, (velocity, acceleration, jerk), ceiling=ceiling, tool=tool)
     return float(k) / (1.0 - LIMIT_MARGIN)
 
 

@@ -4,7 +4,7 @@ timed from rest to rest, time-optimal (:func:`.topp.topp`) or jerk-limited
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -12,11 +12,6 @@ from .jerk import FilteredProfile, jerk_limited
 from .path import PiecewisePath
 from .topp import Profile, ToolRate, joint_motion, topp
 
-#: times the time-optimal profile is planned again, its tool bound tightened, when the tool's speed
-#: sampled along it exceeds its limit (the bound of an interval comes from samples of it)
-TOOL_RETRIES = 3
-#: fewest samples of that check
-TOOL_CHECK_SAMPLES = 4000
 #: ``method`` of the answers
 TIME_OPTIMAL = "time-optimal reachability (piecewise-constant path acceleration, interval-bounded constraints)"
 JERK_LIMITED = ("jerk-limited (FIR-filtered time-optimal profile, time-scaled to proven bounds of velocity, "
@@ -66,12 +61,6 @@ def plan(path: PiecewisePath, velocity, acceleration, jerk=None, n: int = 2000,
             continue  # no motion
         if jerk is None:
             prof = topp(part, velocity, acceleration, share, tool)
-            for _ in range(TOOL_RETRIES if tool is not None else 0):
-                excess = tool_excess(part, prof, tool)
-                if excess <= 1.0:
-                    break
-                tool = replace(tool, inflate=tool.inflate * excess * (1 + 1e-3))
-                prof = topp(part, velocity, acceleration, share, tool)
         else:
             prof = jerk_limited(part, velocity, acceleration, jerk, max(50, share // 2), tool)
         parts.append((part, prof))
@@ -83,15 +72,6 @@ def plan(path: PiecewisePath, velocity, acceleration, jerk=None, n: int = 2000,
         durations = [0.0]
     starts = np.r_[0.0, np.cumsum(durations)[:-1]]
     return Timing(tuple(parts), starts, float(np.sum(durations)), TIME_OPTIMAL if jerk is None else JERK_LIMITED)
-
-
-def tool_excess(path: PiecewisePath, prof: Profile, tool: ToolRate) -> float:
-    """The largest tool speed over its limit on a 1 kHz sampling of ``prof`` (at least
-    :data:`TOOL_CHECK_SAMPLES` samples, the grid points included)."""
-    t = np.unique(np.r_[prof.t, np.linspace(0.0, prof.duration, max(TOOL_CHECK_SAMPLES,
-                                                                     int(prof.duration * 1000) + 1))])
-    s, sd, _ = prof.at(t)
-    return float(np.max(tool.rate(path.q(s), path.derivative(s, 1)) * sd) / tool.max)
 
 
 def sample_times(duration: float, rate: float) -> np.ndarray:

@@ -11,9 +11,16 @@ holds at every ``s`` of the interval" into four linear rows per joint that are s
 (``max(u A_lo, u A_hi) + x_i B_hi <= a`` and the like below), so every instant is covered, not
 only the grid points. The velocity limit ``|q'(s)| sdot <= v`` holds on the interval when it
 holds at both ends with ``max |q'|`` over the interval (``x`` is linear, so its largest value is
-at an end). The tool speed ``|J_v(q(s)) q'(s)| sdot <= v_tool`` is bounded the same way with the
-largest tool rate over sub-samples of the interval, tightened by a factor (the caller checks the
-result and tightens further if needed).
+at an end). The tool speed ``|J_v(q(s)) q'(s)| sdot <= v_tool`` is held the same way with a proven
+bound of the tool rate ``w(s) = |dp/ds|`` over the interval (:meth:`ToolRate.bound`): the tool
+point's derivatives are bounded from the interval's exact ranges of ``q'``, ``q''``, ``q'''``
+(``|d^2p/ds^2| <= L = C (sum_i c_i max|q_i''| + (sum_i c_i max|q_i'|)^2)`` and a like ``M`` for
+``|d^3p/ds^3|``; ``C`` the chain's reach, ``c_i`` how much joint i drives the chain), so ``w`` is at
+most the largest of ``k + 1`` equally spaced samples plus ``min(L d / 2, M d^2 / 8)`` (``d = h / k``
+the spacing; the first as ``w`` is ``L``-Lipschitz, the second as ``dp/ds`` departs from the chord
+between two samples by at most ``M d^2 / 8`` and the chord's norm is at most its larger end's);
+``k`` grows on the intervals where the tool limits the speed until that term is a small fraction
+of the samples.
 
 Then, as TOPP-RA: a backward pass computes the controllable sets ``[0, X_i]`` (the largest
 ``x_i`` from which the end is reached at rest; each step a two-variable linear programme solved
@@ -23,7 +30,7 @@ controllable. The time of interval ``i`` is ``2 (s_{i+1} - s_i) / (sqrt(x_i) + s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -41,15 +48,46 @@ X_CAP = 1e12
 CHECK_EVERY = 512
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ToolRate:
     """The tool's linear speed per unit path speed: ``rate(Q (K, dof), Qp (K, dof)) -> (K,)``,
-    ``|J_v(q) q'|``, and its limit ``max`` (m/s); ``inflate`` multiplies the bound of each interval."""
+    ``w = |J_v(q) q'|``, and its limit ``max`` (m/s).
+
+    ``reach`` (``C``) and ``weights`` (``c``, (dof,)) bound the derivatives of the tool point along any
+    path: ``|d^2p/ds^2| <= C (b + a^2)`` and ``|d^3p/ds^3| <= C (e + 3 a b + a^3)`` with ``a``, ``b``,
+    ``e`` the sums ``sum_i c_i |q_i'|``, ``sum_i c_i |q_i''|``, ``sum_i c_i |q_i'''|``. For a serial
+    chain, ``C = max(1, R)`` with ``R`` a bound of the distance from any joint axis of the chain to the
+    tool point (every partial derivative of the tool point of order 1 to 3 in the joint values is at
+    most ``R`` for revolute joints, 1 or 0 with a prismatic one), ``c_i`` the sum of ``|multiplier|`` of the chain's joints
+    driven by joint i (1 for a joint of the chain, 0 off it). ``q'`` is continuous along a path
+    timed from rest to rest (a part between stops), so ``w`` is continuous and the bound holds
+    across the path's breakpoints. An interval's bound samples ``w`` at
+    ``subsamples + 1`` points, more (up to ``most_subsamples``) where the :meth:`margin` exceeds
+    ``tolerance`` of the samples' largest value and the tool limits the speed."""
 
     rate: Callable[[np.ndarray, np.ndarray], np.ndarray]
     max: float
-    inflate: float = 1.001
+    reach: float
+    weights: np.ndarray
     subsamples: int = 4
+    most_subsamples: int = 1024
+    tolerance: float = 1e-3
+
+    def margin(self, spacing: np.ndarray, ranges) -> np.ndarray:
+        """(K,) how far ``w`` may rise above the larger of two samples ``spacing`` (K,) apart, where
+        ``ranges`` = ``(max|q'|, max|q''|, max|q'''|)`` (each (K, dof)): ``min(L d / 2, M d^2 / 8)``."""
+        a, b, e = (np.asarray(r) @ self.weights for r in ranges)
+        return self.reach * np.minimum((b + a * a) * spacing / 2, (e + 3 * a * b + a**3) * spacing**2 / 8)
+
+    def sampled(self, path: PiecewisePath, s0: np.ndarray, s1: np.ndarray, k: int) -> np.ndarray:
+        """(K,) the largest ``w`` of ``k + 1`` equally spaced samples of each ``[s0, s1]`` (K,)."""
+        ss = (s0[:, None] + (s1 - s0)[:, None] * np.linspace(0.0, 1.0, k + 1)).ravel()
+        return self.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s0), k + 1).max(axis=1)
+
+    def bound(self, path: PiecewisePath, s0: np.ndarray, s1: np.ndarray, ranges, k: int) -> np.ndarray:
+        """(K,) a bound of ``w`` at every ``s`` of each ``[s0, s1]`` (K,), ``ranges`` as :meth:`margin`'s
+        over it: the largest of ``k + 1`` equally spaced samples plus the margin of their spacing."""
+        return self.sampled(path, s0, s1, k) + self.margin((s1 - s0) / k, ranges)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,7 +126,8 @@ def grid(path: PiecewisePath, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.ndarray):
     """The linear rows ``cu u + cx x_i <= r`` (each (N, 4 dof)) that keep every joint's acceleration
-    within ``a`` over each whole interval, and ``max |q'|`` (N, dof) over each interval."""
+    within ``a`` over each whole interval, and ``(max |q'|, max |q''|, max |q'''|)`` (each (N, dof))
+    over each interval."""
     c = path.coeffs[piece]  # (N, D + 1, dof)
     t0 = (s[:-1] - path.breaks[piece])[:, None]
     t1 = (s[1:] - path.breaks[piece])[:, None]
@@ -108,7 +147,9 @@ def interval_rows(path: PiecewisePath, s: np.ndarray, piece: np.ndarray, a: np.n
     cu = np.concatenate([Ahi, Alo, -Alo, -Ahi], axis=1)
     cx = np.concatenate([Bhi, Bhi, -Blo, -Blo], axis=1)
     r = np.tile(a, 4)[None].repeat(len(c), axis=0)
-    return cu, cx, r, np.maximum(np.abs(lo1), np.abs(hi1))
+    lo3, hi3 = poly_range(poly_derivative(c, 3), t0, t1)
+    ranges = tuple(np.maximum(np.abs(lo), np.abs(hi)) for lo, hi in ((lo1, hi1), (Blo, Bhi), (lo3, hi3)))
+    return cu, cx, r, ranges
 
 
 def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -117,15 +158,30 @@ def velocity_bound(qp_max: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.minimum(np.min(np.where(qp_max > 0, (v / qp_max) ** 2, np.inf), axis=1), X_CAP)
 
 
-def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate) -> np.ndarray:
-    """(N,) the largest ``x`` on each interval that keeps the tool's speed within its limit (sampled
-    at ``tool.subsamples + 1`` points of each interval, the largest rate inflated)."""
-    k = tool.subsamples
-    frac = np.linspace(0.0, 1.0, k + 1)
-    ss = (s[:-1, None] + np.diff(s)[:, None] * frac).ravel()
-    w = tool.rate(path.q(ss), path.derivative(ss, 1)).reshape(len(s) - 1, k + 1).max(axis=1) * tool.inflate
+def speed_cap(w: np.ndarray, vmax: float) -> np.ndarray:
+    """The largest ``x = sdot^2`` that keeps ``w sdot`` within ``vmax`` (``X_CAP`` where ``w`` is 0)."""
     with np.errstate(divide="ignore", over="ignore"):
-        return np.minimum(np.where(w > 0, (tool.max / w) ** 2, np.inf), X_CAP)
+        return np.minimum(np.where(w > 0, (vmax / np.maximum(w, 0.0)) ** 2, np.inf), X_CAP)
+
+
+def tool_bound(path: PiecewisePath, s: np.ndarray, tool: ToolRate, ranges, xint: np.ndarray) -> np.ndarray:
+    """(N,) the largest ``x`` on each interval that keeps the tool's speed within ``tool.max`` at every
+    ``s`` of it (:meth:`ToolRate.bound` with the interval's ``ranges`` of ``|q'|``, ``|q''|``,
+    ``|q'''|``). Where that cap is below ``xint`` (the tool limits the speed there) and the margin is
+    over ``tool.tolerance`` of the samples, the interval is sampled 4 times more densely, up to
+    ``tool.most_subsamples``."""
+    k = tool.subsamples
+    h = np.diff(s)
+    margin = tool.margin(h / k, ranges)
+    bound = tool.sampled(path, s[:-1], s[1:], k) + margin
+    todo = np.flatnonzero((margin > tool.tolerance * bound) & (speed_cap(bound, tool.max) < xint))
+    while todo.size and 4 * k <= tool.most_subsamples:
+        check()
+        k *= 4
+        sub = tuple(r[todo] for r in ranges)
+        bound[todo] = tool.bound(path, s[todo], s[todo + 1], sub, k)
+        todo = todo[tool.margin(h[todo] / k, sub) > tool.tolerance * bound[todo]]
+    return speed_cap(bound, tool.max)
 
 
 def backward(cu, cx, r, xmax, ds) -> np.ndarray:
@@ -169,11 +225,10 @@ def topp(path: PiecewisePath, velocity: np.ndarray, acceleration: np.ndarray, n:
     scale = 1.0 - LIMIT_MARGIN
     s, piece = grid(path, n)
     ds = np.diff(s)
-    cu, cx, r, qp_max = interval_rows(path, s, piece, np.asarray(acceleration, float) * scale)
-    xint = velocity_bound(qp_max, np.asarray(velocity, float) * scale)
+    cu, cx, r, ranges = interval_rows(path, s, piece, np.asarray(acceleration, float) * scale)
+    xint = velocity_bound(ranges[0], np.asarray(velocity, float) * scale)
     if tool is not None:
-        xint = np.minimum(xint, tool_bound(path, s, ToolRate(tool.rate, tool.max * scale, tool.inflate,
-                                                             tool.subsamples)))
+        xint = np.minimum(xint, tool_bound(path, s, replace(tool, max=tool.max * scale), ranges, xint))
     xmax = np.minimum(np.r_[xint, xint[-1]], np.r_[xint[0], xint])  # both neighbouring intervals
     X = backward(cu, cx, r, xmax, ds)
     x, u = forward(cu, cx, r, X, ds)
