@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import URDFError
 from ..tolerances import MAX_ABS_COORDINATE
+# the URDF reader's number parsing, private to io: the inertials are read from the same attributes, with its checks
 from .urdf import _number, _numbers, read_xml
 
 
